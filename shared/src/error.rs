@@ -1,0 +1,69 @@
+//! Typed, allocation-free errors of the identification core.
+
+use core::fmt;
+
+/// Why a parameter set, a record or an identification request was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Error {
+    /// A motor parameter is not a finite positive number.
+    NonPositiveParameter(crate::params::ParamId),
+    /// An effect parameter is not finite or out of its physical range.
+    InvalidEffectParameter(crate::params::ParamId),
+    /// The sample step is not a finite positive number.
+    InvalidStep,
+    /// A record's columns have different lengths.
+    LengthMismatch,
+    /// A record holds fewer samples than the fit needs.
+    TooFewSamples,
+    /// A record holds a NaN or infinite value.
+    NonFiniteSample,
+    /// No record was given.
+    NoRecords,
+    /// A bound has `lo >= hi`, or is not finite, or is not positive for a log-scaled parameter.
+    InvalidBound(crate::params::ParamId),
+    /// A fixed value lies outside the physically meaningful range.
+    InvalidFixedValue(crate::params::ParamId),
+    /// Every parameter is fixed: there is nothing to identify.
+    NothingToIdentify,
+    /// More free parameters than the fixed-size solver holds.
+    TooManyParameters,
+    /// The FFO configuration is inconsistent (population does not fit, zero iterations...).
+    InvalidConfig,
+    /// No candidate produced a finite cost.
+    NoFiniteCandidate,
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::NonPositiveParameter(p) => {
+                write!(f, "motor parameter {} must be finite and > 0", p.name())
+            }
+            Error::InvalidEffectParameter(p) => {
+                write!(f, "effect parameter {} is out of range", p.name())
+            }
+            Error::InvalidStep => f.write_str("sample step must be finite and > 0"),
+            Error::LengthMismatch => f.write_str("record columns have different lengths"),
+            Error::TooFewSamples => f.write_str("record has too few samples (need at least 8)"),
+            Error::NonFiniteSample => f.write_str("record holds a NaN or infinite sample"),
+            Error::NoRecords => f.write_str("no record given"),
+            Error::InvalidBound(p) => write!(
+                f,
+                "bound of {} must satisfy lo < hi, finite (and lo > 0 for log-scaled parameters)",
+                p.name()
+            ),
+            Error::InvalidFixedValue(p) => write!(f, "fixed value of {} is out of range", p.name()),
+            Error::NothingToIdentify => {
+                f.write_str("every parameter is fixed: nothing to identify")
+            }
+            Error::TooManyParameters => f.write_str("too many free parameters"),
+            Error::InvalidConfig => f.write_str("inconsistent optimiser configuration"),
+            Error::NoFiniteCandidate => f.write_str("no candidate gave a finite cost"),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for Error {}

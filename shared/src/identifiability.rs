@@ -1,0 +1,254 @@
+//! Which parameters, or combinations of them, the data pins: the seed paper's blind spot.
+//!
+//! From a voltage step read only on the tacho, `w/V = Kv / (La J s^2 + (Ra J + La B) s + Ra B + Kv^2)`
+//! (seed Eq. 6) has three independent coefficients, so two directions of (Ra, La, J, B, Kv)
+//! leave the speed trace unchanged (e.g. Ra, La scaled by lambda and J, B by 1/lambda). The
+//! analysis here is local and numerical, so it covers any record, effect and fixed set:
+//! the Fisher information `F = J^T J / sigma^2` of the weighted residuals with respect to the
+//! natural coordinates (`ln p` for log-scaled parameters, `p` for linear ones) is
+//! eigen-decomposed; a direction is *pinned* when its standard deviation `1/sqrt(eig)` is at
+//! most [`PINNED_STD`] (10 % for a log coordinate). A parameter or combination is pinned when
+//! its gradient has (almost) no component along the unpinned directions; its standard
+//! deviation is then taken from the pinned part of the spectrum.
+
+use crate::error::Error;
+use crate::linalg::symmetric_eigen;
+use crate::objective::{Cost, Objective};
+use crate::params::{ModelParams, ParamId};
+use crate::space::{Scale, Space, MAX_FREE};
+
+/// Largest standard deviation (in natural coordinates) of a pinned direction.
+pub const PINNED_STD: f64 = 0.1;
+/// Largest share of a gradient's squared norm along unpinned directions for a quantity that
+/// is still called pinned.
+const UNPINNED_SHARE: f64 = 1e-2;
+/// Finite-difference step (unit coordinates) of the central-difference Jacobian.
+const STEP: f32 = 1e-3;
+
+/// Certainty about one free parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamCertainty {
+    /// Which parameter.
+    pub id: ParamId,
+    /// Identified value.
+    pub value: f32,
+    /// True when the data pins it.
+    pub pinned: bool,
+    /// One standard deviation, in the parameter's unit, when pinned.
+    pub std: Option<f32>,
+}
+
+/// The coefficients of seed Eq. 6 that a speed record from a voltage input can pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Combination {
+    /// `Kv / (La J)`: the gain of seed Eq. 6 per `s^2`.
+    KvOverLaJ,
+    /// `Ra/La + B/J`: the damping coefficient of the denominator.
+    RaOverLaPlusBOverJ,
+    /// `(Ra B + Kv^2) / (La J)`: the static coefficient (squared natural frequency).
+    StaticCoefficient,
+}
+
+impl Combination {
+    /// All three.
+    pub const ALL: [Combination; 3] = [
+        Combination::KvOverLaJ,
+        Combination::RaOverLaPlusBOverJ,
+        Combination::StaticCoefficient,
+    ];
+
+    /// Formula, as printed.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Combination::KvOverLaJ => "kv/(la*j)",
+            Combination::RaOverLaPlusBOverJ => "ra/la+b/j",
+            Combination::StaticCoefficient => "(ra*b+kv^2)/(la*j)",
+        }
+    }
+
+    /// Value and `d ln c / d ln p` for (Ra, La, J, B, Kv).
+    pub fn evaluate(self, p: &ModelParams) -> (f32, [f32; 5]) {
+        let (ra, la, j, b, kv) = (
+            p.get(ParamId::Ra),
+            p.get(ParamId::La),
+            p.get(ParamId::J),
+            p.get(ParamId::B),
+            p.get(ParamId::Kv),
+        );
+        match self {
+            Combination::KvOverLaJ => (kv / (la * j), [0.0, -1.0, -1.0, 0.0, 1.0]),
+            Combination::RaOverLaPlusBOverJ => {
+                let (e, m) = (ra / la, b / j);
+                let c = e + m;
+                (c, [e / c, -e / c, -m / c, m / c, 0.0])
+            }
+            Combination::StaticCoefficient => {
+                let (rb, kk) = (ra * b, kv * kv);
+                let s = rb + kk;
+                (s / (la * j), [rb / s, -1.0, -1.0, rb / s, 2.0 * kk / s])
+            }
+        }
+    }
+}
+
+/// Certainty about one combination.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CombinationCertainty {
+    /// Which combination.
+    pub combination: Combination,
+    /// Its value at the identified parameters.
+    pub value: f32,
+    /// True when the data pins it.
+    pub pinned: bool,
+    /// Relative standard deviation, when pinned.
+    pub rel_std: Option<f32>,
+}
+
+/// A direction in natural coordinates along which the fit is (nearly) flat.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Direction {
+    /// Unit vector over the free parameters (same order as [`Identifiability::params`]).
+    pub components: [f32; MAX_FREE],
+    /// Standard deviation along it (natural coordinates), `INFINITY` when flat.
+    pub std: f32,
+}
+
+/// The identifiability report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Identifiability {
+    /// Number of pinned directions.
+    pub rank: usize,
+    /// Per free parameter.
+    pub params: heapless::Vec<ParamCertainty, MAX_FREE>,
+    /// Seed Eq. 6 coefficients (when any motor parameter is free).
+    pub combinations: heapless::Vec<CombinationCertainty, 3>,
+    /// Directions the data does not pin.
+    pub unpinned: heapless::Vec<Direction, MAX_FREE>,
+    /// Model evaluations this analysis spent.
+    pub evaluations: u32,
+}
+
+impl Identifiability {
+    /// True when every free parameter is pinned.
+    pub fn all_pinned(&self) -> bool {
+        self.params.iter().all(|p| p.pinned)
+    }
+}
+
+/// Analyse the fit at unit point `u` with cost `cost`.
+pub fn analyse(
+    objective: &Objective,
+    space: &Space,
+    u: &[f32],
+    cost: &Cost,
+) -> Result<Identifiability, Error> {
+    let dim = space.dim();
+    let ne = objective
+        .normal_equations(space, u, STEP, true)
+        .ok_or(Error::NoFiniteCandidate)?;
+    let dof = (cost.residuals as f64 - dim as f64).max(1.0);
+    let sigma2 = (cost.sse / dof).max(f64::MIN_POSITIVE);
+    let free = space.free();
+    let mut fisher = [[0.0f64; MAX_FREE]; MAX_FREE];
+    for a in 0..dim {
+        for b in 0..dim {
+            let scale = free[a].natural_per_unit() as f64 * free[b].natural_per_unit() as f64;
+            fisher[a][b] = ne.jtj[a][b] / scale / sigma2;
+        }
+    }
+    let (vals, vecs) = symmetric_eigen(&fisher, dim);
+    let std_of = |k: usize| {
+        if vals[k] > 0.0 {
+            1.0 / libm::sqrt(vals[k])
+        } else {
+            f64::INFINITY
+        }
+    };
+    let pinned_dir = |k: usize| std_of(k) <= PINNED_STD;
+    let rank = (0..dim).filter(|&k| pinned_dir(k)).count();
+    // Quantity with gradient g in natural coordinates: (pinned?, std).
+    let certainty = |g: &[f64; MAX_FREE]| -> (bool, f64) {
+        let norm2: f64 = g[..dim].iter().map(|x| x * x).sum();
+        let mut unpinned = 0.0;
+        let mut var = 0.0;
+        for k in 0..dim {
+            let proj: f64 = (0..dim).map(|i| vecs[i][k] * g[i]).sum();
+            if pinned_dir(k) {
+                var += proj * proj / vals[k];
+            } else {
+                unpinned += proj * proj;
+            }
+        }
+        (unpinned <= UNPINNED_SHARE * norm2, libm::sqrt(var))
+    };
+    let p = space.params(u);
+    let mut params = heapless::Vec::new();
+    for (i, f) in free.iter().enumerate() {
+        let mut g = [0.0f64; MAX_FREE];
+        g[i] = 1.0;
+        let (pinned, std_z) = certainty(&g);
+        let value = p.get(f.id);
+        let std = match f.scale {
+            Scale::Log => std_z * value as f64,
+            Scale::Linear => std_z,
+        };
+        let _ = params.push(ParamCertainty {
+            id: f.id,
+            value,
+            pinned,
+            std: pinned.then_some(std as f32),
+        });
+    }
+    let mut combinations = heapless::Vec::new();
+    if free.iter().any(|f| f.id.is_motor()) {
+        for c in Combination::ALL {
+            let (value, dlog) = c.evaluate(&p);
+            let mut g = [0.0f64; MAX_FREE];
+            for (i, f) in free.iter().enumerate() {
+                if f.id.is_motor() {
+                    let e = dlog[f.id.index()] as f64;
+                    g[i] = match f.scale {
+                        Scale::Log => e,
+                        Scale::Linear => e / p.get(f.id) as f64,
+                    };
+                }
+            }
+            let (pinned, rel) = certainty(&g);
+            let _ = combinations.push(CombinationCertainty {
+                combination: c,
+                value,
+                pinned,
+                rel_std: pinned.then_some(rel as f32),
+            });
+        }
+    }
+    let mut unpinned = heapless::Vec::new();
+    for k in 0..dim {
+        if !pinned_dir(k) {
+            let mut components = [0.0f32; MAX_FREE];
+            // Sign convention: largest component positive.
+            let mut lead = 0;
+            for i in 0..dim {
+                if vecs[i][k].abs() > vecs[lead][k].abs() {
+                    lead = i;
+                }
+            }
+            let sign = if vecs[lead][k] < 0.0 { -1.0 } else { 1.0 };
+            for (i, c) in components.iter_mut().enumerate().take(dim) {
+                *c = (sign * vecs[i][k]) as f32;
+            }
+            let _ = unpinned.push(Direction {
+                components,
+                std: std_of(k) as f32,
+            });
+        }
+    }
+    Ok(Identifiability {
+        rank,
+        params,
+        combinations,
+        unpinned,
+        evaluations: ne.simulations,
+    })
+}

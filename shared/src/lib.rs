@@ -1,0 +1,30 @@
+//! motor-id core: a fixed-step DC motor model (seed Eq. 1-5) with optional unmodelled
+//! effects, the Farmland Fertility Optimizer in fixed memory (seed Eq. 8-16), least-squares
+//! refinement, identification with an identifiability report, and the host/board messages.
+//!
+//! `no_std` without an allocator (builds for `thumbv7em-none-eabihf`); tests and the `std`
+//! feature use the standard library. All arithmetic on signals is f32 with no fused
+//! multiply-add, so the same data and seed give bit-identical results on host and board.
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
+#![deny(missing_docs)]
+
+pub mod discretise;
+pub mod effects;
+pub mod error;
+pub mod ffo;
+pub mod identifiability;
+pub mod identify;
+pub mod linalg;
+pub mod objective;
+pub mod params;
+pub mod profile;
+pub mod record;
+pub mod refine;
+pub mod rng;
+pub mod sim;
+pub mod space;
+pub mod synth;
+
+pub use error::Error;
+pub use params::{ModelParams, ParamId};
+pub use record::Record;

@@ -1,0 +1,187 @@
+//! A measured experiment, borrowed from the caller (no allocation), and what the fit derives
+//! from it: the initial state and a noise estimate.
+
+use crate::error::Error;
+use crate::sim::InitialState;
+
+/// Fewest samples a record may hold.
+pub const MIN_SAMPLES: usize = 8;
+
+/// One experiment sampled at a fixed step: sample `k` holds the readings at `t = k dt` and the
+/// voltage (and load torque) applied from `k dt` to `(k + 1) dt`.
+#[derive(Clone, Copy, Debug)]
+pub struct Record<'a> {
+    /// Sample step [s].
+    pub dt: f32,
+    /// Armature voltage [V].
+    pub v: &'a [f32],
+    /// Measured speed [rad/s].
+    pub omega: &'a [f32],
+    /// Measured armature current [A], if logged.
+    pub current: Option<&'a [f32]>,
+    /// Known load torque [N m], if applied.
+    pub load: Option<&'a [f32]>,
+}
+
+impl<'a> Record<'a> {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.v.len()
+    }
+
+    /// True when the record holds no sample.
+    pub fn is_empty(&self) -> bool {
+        self.v.is_empty()
+    }
+
+    /// Check lengths, step and finiteness.
+    pub fn validate(&self) -> Result<(), Error> {
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(Error::InvalidStep);
+        }
+        let n = self.v.len();
+        if self.omega.len() != n
+            || self.current.is_some_and(|c| c.len() != n)
+            || self.load.is_some_and(|l| l.len() != n)
+        {
+            return Err(Error::LengthMismatch);
+        }
+        if n < MIN_SAMPLES {
+            return Err(Error::TooFewSamples);
+        }
+        let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
+        if !(finite(self.v)
+            && finite(self.omega)
+            && self.current.is_none_or(finite)
+            && self.load.is_none_or(finite))
+        {
+            return Err(Error::NonFiniteSample);
+        }
+        Ok(())
+    }
+
+    /// Load torque at sample `k` (0 without a load column).
+    pub fn load_at(&self, k: usize) -> f32 {
+        self.load.map_or(0.0, |l| l[k])
+    }
+
+    /// Initial state of the simulation for this record and motor: speed from the mean of the
+    /// first four readings, or exactly rest when that mean is within three standard errors of
+    /// zero for speed noise `sigma_omega` (a record that starts indistinguishable from rest
+    /// starts at rest); current measured, or else the mechanical equilibrium
+    /// `Kv i = B w + tl` (seed Eq. 4 with dw/dt = 0), which is exact at rest and in steady state.
+    pub fn initial_state(&self, kv: f32, b: f32, sigma_omega: f32) -> InitialState {
+        let head = self.omega.len().min(4);
+        let mut omega = mean(&self.omega[..head]);
+        if omega.abs() <= 3.0 * sigma_omega / libm::sqrtf(head as f32) {
+            omega = 0.0;
+        }
+        let current = match self.current {
+            Some(c) => mean(&c[..head.min(1)]),
+            None => (b * omega + self.load_at(0)) / kv,
+        };
+        InitialState { current, omega }
+    }
+}
+
+fn mean(x: &[f32]) -> f32 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    x.iter().sum::<f32>() / x.len() as f32
+}
+
+/// Standard deviation of white measurement noise on a smooth signal, from its second
+/// differences: `var(x[k+1] - 2 x[k] + x[k-1]) = 6 sigma^2` for white noise, while a signal
+/// sampled well above its bandwidth contributes almost nothing. A median-based estimate
+/// would be more robust to steps; the mean of the smaller half of squared differences is
+/// used instead (fixed memory, no sort), scaled for a normal distribution.
+pub fn noise_sigma(x: &[f32]) -> f32 {
+    if x.len() < 3 {
+        return 0.0;
+    }
+    // Two passes: the mean square, then the mean square of the terms below it (trims steps
+    // and transients, which show as a few large second differences).
+    let mut sum = 0.0f64;
+    let n = x.len() - 2;
+    for k in 1..x.len() - 1 {
+        let d = (x[k + 1] - 2.0 * x[k] + x[k - 1]) as f64;
+        sum += d * d;
+    }
+    let ms = sum / n as f64;
+    let mut trimmed = 0.0f64;
+    let mut count = 0usize;
+    for k in 1..x.len() - 1 {
+        let d = (x[k + 1] - 2.0 * x[k] + x[k - 1]) as f64;
+        if d * d <= 4.0 * ms {
+            trimmed += d * d;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        return 0.0;
+    }
+    // For a normal variable, E[d^2 | d^2 <= 4 E d^2] = 0.7385 E[d^2] (truncation at 2 sigma).
+    let var_d = trimmed / count as f64 / 0.7385;
+    libm::sqrt(var_d / 6.0) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_core::{RngCore, SeedableRng};
+
+    #[test]
+    fn noise_sigma_recovers_white_noise_on_a_smooth_signal() {
+        let mut rng = rand_xoshiro::Xoshiro128PlusPlus::seed_from_u64(7);
+        let sigma = 0.5f32;
+        let x: std::vec::Vec<f32> = (0..20_000)
+            .map(|k| {
+                let smooth = 100.0 * (1.0 - libm::expf(-(k as f32) * 1e-3));
+                smooth + sigma * crate::rng::normal(&mut rng)
+            })
+            .collect();
+        let est = noise_sigma(&x);
+        assert!((est / sigma - 1.0).abs() < 0.05, "estimated {est}");
+        let _ = rng.next_u32();
+    }
+
+    #[test]
+    fn validation_catches_bad_records() {
+        let v = [1.0f32; 10];
+        let w = [0.0f32; 10];
+        let short = [0.0f32; 9];
+        let ok = Record {
+            dt: 1e-3,
+            v: &v,
+            omega: &w,
+            current: None,
+            load: None,
+        };
+        assert_eq!(ok.validate(), Ok(()));
+        assert_eq!(
+            Record {
+                omega: &short,
+                ..ok
+            }
+            .validate(),
+            Err(Error::LengthMismatch)
+        );
+        assert_eq!(Record { dt: 0.0, ..ok }.validate(), Err(Error::InvalidStep));
+        let mut bad = w;
+        bad[3] = f32::NAN;
+        assert_eq!(
+            Record { omega: &bad, ..ok }.validate(),
+            Err(Error::NonFiniteSample)
+        );
+        assert_eq!(
+            Record {
+                v: &v[..4],
+                omega: &w[..4],
+                ..ok
+            }
+            .validate(),
+            Err(Error::TooFewSamples)
+        );
+    }
+}

@@ -1,0 +1,328 @@
+//! Fixed-step simulation of the motor (seed Eq. 1-5) with the optional effects.
+//!
+//! The linear part advances with the exact ZOH coefficients of [`crate::discretise`]. Each
+//! nonlinear effect enters as an extra voltage or load torque evaluated at the start of the
+//! step and held over it; Coulomb friction and brush drop are dead zones (stiction: the shaft
+//! stays at rest until the drive torque exceeds `tc`; no current flows until the driving
+//! voltage exceeds `vb`), handled by freezing the stuck state and advancing the other one
+//! with its own exact first-order step. Tacho effects (delay, ripple) act on the reading only.
+//! The state is kept as a compensated (two-sum) f32 pair so that slow modes at high sample
+//! rates do not stall on f32 rounding.
+
+use crate::discretise::Discrete;
+use crate::error::Error;
+use crate::params::{ModelParams, ParamId};
+
+/// Longest tacho delay the simulator can represent, in samples.
+pub const MAX_DELAY_SAMPLES: usize = 126;
+const RING: usize = MAX_DELAY_SAMPLES + 2;
+
+/// Compensated f32 accumulator: `hi + lo` carries about twice the precision of one f32.
+#[derive(Clone, Copy, Debug, Default)]
+struct Compensated {
+    hi: f32,
+    lo: f32,
+}
+
+impl Compensated {
+    fn new(v: f32) -> Self {
+        Compensated { hi: v, lo: 0.0 }
+    }
+    /// Knuth's two-sum; exact because Rust never fuses or reassociates f32 operations.
+    fn add(&mut self, d: f32) {
+        let y = d + self.lo;
+        let s = self.hi + y;
+        let bp = s - self.hi;
+        let err = (self.hi - (s - bp)) + (y - bp);
+        self.hi = s;
+        self.lo = err;
+    }
+    fn set(&mut self, v: f32) {
+        self.hi = v;
+        self.lo = 0.0;
+    }
+}
+
+/// Initial condition of a simulation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InitialState {
+    /// Armature current [A].
+    pub current: f32,
+    /// Shaft speed [rad/s].
+    pub omega: f32,
+}
+
+impl InitialState {
+    /// Motor at rest, no current.
+    pub const REST: InitialState = InitialState {
+        current: 0.0,
+        omega: 0.0,
+    };
+}
+
+/// What the simulated sensors read at one sample instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reading {
+    /// Tacho reading [rad/s] (with sensor delay and ripple, if present).
+    pub omega: f32,
+    /// Armature current [A].
+    pub current: f32,
+}
+
+/// Sign of `x` with 0 for 0.
+fn sign(x: f32) -> f32 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// A dead zone of size `threshold` on a state that may stick at zero (shaft speed under
+/// Coulomb friction, current under brush drop). Returns the opposing term to apply over the
+/// next step: `None` while the state stays stuck, else `threshold * direction`.
+fn dead_zone_opposition(value: f32, drive: f32, threshold: f32, stuck: &mut bool) -> Option<f32> {
+    if *stuck {
+        if drive.abs() <= threshold {
+            return None;
+        }
+        *stuck = false;
+        return Some(threshold * sign(drive));
+    }
+    let direction = if value != 0.0 {
+        sign(value)
+    } else {
+        sign(drive)
+    };
+    Some(threshold * direction)
+}
+
+/// After a step with an opposing dead-zone term: a state that crossed zero sticks there.
+fn stick_on_crossing(before: f32, opposition: f32, state: &mut Compensated, stuck: &mut bool) {
+    let moving_dir = if before != 0.0 {
+        sign(before)
+    } else {
+        sign(opposition)
+    };
+    if opposition != 0.0 && sign(state.hi) != moving_dir {
+        state.set(0.0);
+        *stuck = true;
+    }
+}
+
+/// A running simulation of one parameter set at one sample step.
+#[derive(Clone, Debug)]
+pub struct Simulator {
+    disc: Discrete,
+    dt: f32,
+    kv: f32,
+    tc: f32,
+    kq: f32,
+    kar: f32,
+    vb: f32,
+    ripple_amp: f32,
+    ripple_cycles: f32,
+    ripple_phase: f32,
+    /// Delay in samples, split into whole samples and fraction.
+    delay_whole: usize,
+    delay_frac: f32,
+    current: Compensated,
+    omega: Compensated,
+    /// Ripple angle `ripple_cycles * theta`, wrapped to [-pi, pi].
+    psi: f32,
+    shaft_stuck: bool,
+    current_stuck: bool,
+    ring: [f32; RING],
+    head: usize,
+    filled: usize,
+}
+
+impl Simulator {
+    /// A simulator for `p` at step `dt`, starting from `init`.
+    pub fn new(p: &ModelParams, dt: f32, init: InitialState) -> Result<Simulator, Error> {
+        p.validate()?;
+        let disc = Discrete::new(p, dt)?;
+        let delay = (p.get(ParamId::Td) / dt).min(MAX_DELAY_SAMPLES as f32);
+        let delay_whole = libm::floorf(delay) as usize;
+        let mut s = Simulator {
+            disc,
+            dt,
+            kv: p.get(ParamId::Kv),
+            tc: p.get(ParamId::Tc),
+            kq: p.get(ParamId::Kq),
+            kar: p.get(ParamId::Kar),
+            vb: p.get(ParamId::Vb),
+            ripple_amp: p.get(ParamId::RippleAmp),
+            ripple_cycles: p.get(ParamId::RippleCycles),
+            ripple_phase: p.get(ParamId::RipplePhase),
+            delay_whole,
+            delay_frac: delay - delay_whole as f32,
+            current: Compensated::new(0.0),
+            omega: Compensated::new(0.0),
+            psi: 0.0,
+            shaft_stuck: false,
+            current_stuck: false,
+            ring: [0.0; RING],
+            head: 0,
+            filled: 0,
+        };
+        s.reset(init);
+        Ok(s)
+    }
+
+    /// Restart from `init` with the same parameters.
+    pub fn reset(&mut self, init: InitialState) {
+        self.current = Compensated::new(init.current);
+        self.omega = Compensated::new(init.omega);
+        self.psi = 0.0;
+        self.shaft_stuck = self.tc > 0.0 && init.omega == 0.0;
+        self.current_stuck = self.vb > 0.0 && init.current == 0.0;
+        self.head = 0;
+        self.filled = 0;
+        self.push_reading();
+    }
+
+    /// Flux factor of armature reaction, `1 - kar |i|`, kept above 0.1.
+    fn flux_factor(&self) -> f32 {
+        if self.kar == 0.0 {
+            1.0
+        } else {
+            (1.0 - self.kar * self.current.hi.abs()).max(0.1)
+        }
+    }
+
+    fn tacho_now(&self) -> f32 {
+        let w = self.omega.hi;
+        if self.ripple_amp == 0.0 {
+            w
+        } else {
+            w * (1.0 + self.ripple_amp * libm::sinf(self.psi + self.ripple_phase))
+        }
+    }
+
+    fn push_reading(&mut self) {
+        let r = self.tacho_now();
+        self.head = (self.head + 1) % RING;
+        self.ring[self.head] = r;
+        self.filled = (self.filled + 1).min(RING);
+    }
+
+    fn ring_back(&self, n: usize) -> f32 {
+        let n = n.min(self.filled - 1);
+        self.ring[(self.head + RING - n) % RING]
+    }
+
+    /// What the sensors read now.
+    pub fn reading(&self) -> Reading {
+        let omega = if self.delay_whole == 0 && self.delay_frac == 0.0 {
+            self.ring[self.head]
+        } else {
+            let a = self.ring_back(self.delay_whole);
+            let b = self.ring_back(self.delay_whole + 1);
+            a + self.delay_frac * (b - a)
+        };
+        Reading {
+            omega,
+            current: self.current.hi,
+        }
+    }
+
+    /// True shaft speed (no sensor effects).
+    pub fn omega(&self) -> f32 {
+        self.omega.hi
+    }
+
+    /// Advance one step with armature voltage `v` and known load torque `tl` held over it.
+    pub fn advance(&mut self, v: f32, tl: f32) {
+        let i0 = self.current.hi;
+        let w0 = self.omega.hi;
+        let flux = self.flux_factor();
+        // Armature reaction as held inputs: the linear part uses kv; the flux loss adds
+        // back (1 - flux) kv w to the voltage and removes (1 - flux) kv i of torque.
+        let dkv = (1.0 - flux) * self.kv;
+        let mut volts = v + dkv * w0;
+        let mut load = tl + dkv * i0 + self.kq * w0 * w0.abs();
+        let mut brush = 0.0;
+        let mut friction = 0.0;
+        let current_moves = if self.vb > 0.0 {
+            match dead_zone_opposition(i0, volts - self.kv * w0, self.vb, &mut self.current_stuck) {
+                Some(o) => {
+                    brush = o;
+                    true
+                }
+                None => false,
+            }
+        } else {
+            true
+        };
+        let shaft_moves = if self.tc > 0.0 {
+            match dead_zone_opposition(
+                w0,
+                self.kv * flux * i0 - load,
+                self.tc,
+                &mut self.shaft_stuck,
+            ) {
+                Some(o) => {
+                    friction = o;
+                    true
+                }
+                None => false,
+            }
+        } else {
+            true
+        };
+        volts -= brush;
+        load += friction;
+        let d = &self.disc;
+        match (current_moves, shaft_moves) {
+            (true, true) => {
+                let di = d.d[0][0] * i0 + d.d[0][1] * w0 + d.gv[0] * volts + d.gt[0] * load;
+                let dw = d.d[1][0] * i0 + d.d[1][1] * w0 + d.gv[1] * volts + d.gt[1] * load;
+                self.current.add(di);
+                self.omega.add(dw);
+            }
+            (true, false) => self.current.add(d.ae * i0 + d.ge * volts),
+            (false, true) => self.omega.add(d.am * w0 + d.gm * load),
+            (false, false) => {}
+        }
+        if current_moves && self.vb > 0.0 {
+            stick_on_crossing(i0, brush, &mut self.current, &mut self.current_stuck);
+        }
+        if shaft_moves && self.tc > 0.0 {
+            stick_on_crossing(w0, friction, &mut self.omega, &mut self.shaft_stuck);
+        }
+        if self.ripple_amp != 0.0 {
+            let psi = self.psi + self.ripple_cycles * 0.5 * (w0 + self.omega.hi) * self.dt;
+            // Wrapped so that f32 sin stays accurate on long records.
+            self.psi = libm::remainderf(psi, core::f32::consts::TAU);
+        }
+        self.push_reading();
+    }
+}
+
+/// Simulate a whole record: `out_omega[k]` and `out_current[k]` are the readings at sample
+/// `k`, before the input of sample `k` is applied (the convention of [`crate::record`]).
+pub fn simulate(
+    p: &ModelParams,
+    dt: f32,
+    init: InitialState,
+    v: &[f32],
+    tl: Option<&[f32]>,
+    out_omega: &mut [f32],
+    out_current: &mut [f32],
+) -> Result<(), Error> {
+    let n = v.len();
+    if out_omega.len() != n || out_current.len() != n || tl.is_some_and(|t| t.len() != n) {
+        return Err(Error::LengthMismatch);
+    }
+    let mut sim = Simulator::new(p, dt, init)?;
+    for k in 0..n {
+        let r = sim.reading();
+        out_omega[k] = r.omega;
+        out_current[k] = r.current;
+        sim.advance(v[k], tl.map_or(0.0, |t| t[k]));
+    }
+    Ok(())
+}

@@ -1,0 +1,190 @@
+//! The search space: which parameters are free, their bounds and scaling, and the map between
+//! the unit cube the optimisers work in and physical parameter values.
+
+use crate::error::Error;
+use crate::params::{ModelParams, ParamId, PARAM_COUNT};
+
+/// Largest number of free parameters.
+pub const MAX_FREE: usize = 12;
+
+/// How a free parameter maps from the unit interval.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Scale {
+    /// `p = lo + (hi - lo) u` (seed Eq. 9).
+    Linear,
+    /// `p = lo (hi / lo)^u`: equal resolution per decade, for bounds spanning decades.
+    Log,
+}
+
+/// Bounds and fixed values of every parameter: the user's description of the problem.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProblemSpec {
+    /// Search bounds per parameter (indexed by [`ParamId::index`]).
+    pub bounds: [(f32, f32); PARAM_COUNT],
+    /// Free (true) or held at `base` (false), per parameter.
+    pub free: [bool; PARAM_COUNT],
+    /// Values of the parameters that are not free.
+    pub base: ModelParams,
+}
+
+impl Default for ProblemSpec {
+    /// The seed's problem: the five motor parameters free within Table 1, no effects.
+    fn default() -> Self {
+        let mut bounds = [(0.0, 0.0); PARAM_COUNT];
+        let mut free = [false; PARAM_COUNT];
+        for id in ParamId::ALL {
+            bounds[id.index()] = id.default_bounds();
+            free[id.index()] = id.is_motor();
+        }
+        ProblemSpec {
+            bounds,
+            free,
+            base: ModelParams::SEED_MOTOR,
+        }
+    }
+}
+
+impl ProblemSpec {
+    /// Hold `id` at `value`.
+    pub fn fix(&mut self, id: ParamId, value: f32) -> Result<(), Error> {
+        let (lo, hi) = id.physical_range();
+        if !value.is_finite() || value < lo || value > hi {
+            return Err(Error::InvalidFixedValue(id));
+        }
+        self.free[id.index()] = false;
+        self.base.set(id, value);
+        Ok(())
+    }
+
+    /// Let `id` vary within `lo..hi`.
+    pub fn set_bounds(&mut self, id: ParamId, lo: f32, hi: f32) -> Result<(), Error> {
+        let (plo, phi) = id.physical_range();
+        if !(lo.is_finite() && hi.is_finite() && lo < hi && lo >= plo && hi <= phi) {
+            return Err(Error::InvalidBound(id));
+        }
+        if id.is_motor() && lo <= 0.0 {
+            return Err(Error::InvalidBound(id));
+        }
+        self.bounds[id.index()] = (lo, hi);
+        Ok(())
+    }
+
+    /// Make `id` a free parameter within its current bounds.
+    pub fn free(&mut self, id: ParamId) {
+        self.free[id.index()] = true;
+    }
+}
+
+/// One free parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FreeParam {
+    /// Which parameter.
+    pub id: ParamId,
+    /// Lower bound.
+    pub lo: f32,
+    /// Upper bound.
+    pub hi: f32,
+    /// Mapping from the unit interval.
+    pub scale: Scale,
+}
+
+impl FreeParam {
+    /// Physical value at unit coordinate `u` (clamped to [0, 1]).
+    pub fn value(&self, u: f32) -> f32 {
+        let u = u.clamp(0.0, 1.0);
+        match self.scale {
+            Scale::Linear => self.lo + (self.hi - self.lo) * u,
+            Scale::Log => self.lo * libm::powf(self.hi / self.lo, u),
+        }
+    }
+
+    /// Unit coordinate of physical value `p` (clamped to the bounds).
+    pub fn unit(&self, p: f32) -> f32 {
+        let u = match self.scale {
+            Scale::Linear => (p - self.lo) / (self.hi - self.lo),
+            Scale::Log => libm::logf(p / self.lo) / libm::logf(self.hi / self.lo),
+        };
+        if u.is_finite() {
+            u.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// `d(natural coordinate)/du`, where the natural coordinate is `ln p` for log-scaled and
+    /// `p` for linear parameters.
+    pub fn natural_per_unit(&self) -> f32 {
+        match self.scale {
+            Scale::Linear => self.hi - self.lo,
+            Scale::Log => libm::logf(self.hi / self.lo),
+        }
+    }
+}
+
+/// The free parameters of a problem and the fixed rest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Space {
+    base: ModelParams,
+    free: heapless::Vec<FreeParam, MAX_FREE>,
+}
+
+impl Space {
+    /// Build the space of `spec`. With `log_scale`, parameters whose lower bound is positive
+    /// are searched in log scale; otherwise every parameter is linear (seed Eq. 9).
+    pub fn new(spec: &ProblemSpec, log_scale: bool) -> Result<Space, Error> {
+        let mut free = heapless::Vec::new();
+        for id in ParamId::ALL {
+            if !spec.free[id.index()] {
+                continue;
+            }
+            let (lo, hi) = spec.bounds[id.index()];
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) || (id.is_motor() && lo <= 0.0) {
+                return Err(Error::InvalidBound(id));
+            }
+            let scale = if log_scale && lo > 0.0 {
+                Scale::Log
+            } else {
+                Scale::Linear
+            };
+            free.push(FreeParam { id, lo, hi, scale })
+                .map_err(|_| Error::TooManyParameters)?;
+        }
+        if free.is_empty() {
+            return Err(Error::NothingToIdentify);
+        }
+        spec.base.validate()?;
+        Ok(Space {
+            base: spec.base,
+            free,
+        })
+    }
+
+    /// Number of free parameters.
+    pub fn dim(&self) -> usize {
+        self.free.len()
+    }
+
+    /// The free parameters.
+    pub fn free(&self) -> &[FreeParam] {
+        &self.free
+    }
+
+    /// Parameter set at unit coordinates `u` (length [`Space::dim`]).
+    pub fn params(&self, u: &[f32]) -> ModelParams {
+        let mut p = self.base;
+        for (f, &x) in self.free.iter().zip(u) {
+            p.set(f.id, f.value(x));
+        }
+        p
+    }
+
+    /// Unit coordinates of `p`.
+    pub fn unit(&self, p: &ModelParams) -> [f32; MAX_FREE] {
+        let mut u = [0.0; MAX_FREE];
+        for (x, f) in u.iter_mut().zip(self.free.iter()) {
+            *x = f.unit(p.get(f.id));
+        }
+        u
+    }
+}
