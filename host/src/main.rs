@@ -1,1 +1,34 @@
-fn main() {}
+//! `motor-id`: identify DC motor parameters (seed paper: FFO on the speed RMSE, Eq. 7) from
+//! recorded or simulated data, with an honest identifiability report.
+
+mod cli;
+mod csvio;
+mod identify_cmd;
+mod plot;
+mod progress;
+mod report;
+mod simulate_cmd;
+mod spec;
+
+use clap::Parser;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args = match cli::Cli::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            // clap prints help/version to stdout (exit 0) and usage errors to stderr (exit 2).
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    match cli::run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the whole context chain joined.
+            let msg: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            eprintln!("motor-id: error: {}", msg.join(": "));
+            ExitCode::FAILURE
+        }
+    }
+}

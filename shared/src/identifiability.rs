@@ -7,7 +7,10 @@
 //! the Fisher information `F = J^T J / sigma^2` of the weighted residuals with respect to the
 //! natural coordinates (`ln p` for log-scaled parameters, `p` for linear ones) is
 //! eigen-decomposed; a direction is *pinned* when its standard deviation `1/sqrt(eig)` is at
-//! most [`PINNED_STD`] (10 % for a log coordinate). A parameter or combination is pinned when
+//! most [`PINNED_STD`] (10 % for a log coordinate) and its eigenvalue stands clear of the
+//! numerical floor of the finite-difference Jacobian (ten times the magnitude of the most
+//! negative eigenvalue, which exact arithmetic would make non-negative, and at least 1e-8 of the
+//! largest). A parameter or combination is pinned when
 //! its gradient has (almost) no component along the unpinned directions; its standard
 //! deviation is then taken from the pinned part of the spectrum.
 
@@ -22,6 +25,8 @@ pub const PINNED_STD: f64 = 0.1;
 /// Largest share of a gradient's squared norm along unpinned directions for a quantity that
 /// is still called pinned.
 const UNPINNED_SHARE: f64 = 1e-2;
+/// A pinned direction's eigenvalue must exceed the numerical floor by this factor.
+const NUMERICAL_MARGIN: f64 = 10.0;
 /// Finite-difference step (unit coordinates) of the central-difference Jacobian.
 const STEP: f32 = 1e-3;
 
@@ -158,6 +163,10 @@ pub fn analyse(
         }
     }
     let (vals, vecs) = symmetric_eigen(&fisher, dim);
+    // Numerical floor of the spectrum: finite differences of an f32 simulation leave
+    // eigenvalues of about this size (seen as negative ones) where the fit is exactly flat.
+    let largest = vals[dim - 1].max(0.0);
+    let floor = NUMERICAL_MARGIN * (-vals[0]).max(1e-9 * largest);
     let std_of = |k: usize| {
         if vals[k] > 0.0 {
             1.0 / libm::sqrt(vals[k])
@@ -165,7 +174,7 @@ pub fn analyse(
             f64::INFINITY
         }
     };
-    let pinned_dir = |k: usize| std_of(k) <= PINNED_STD;
+    let pinned_dir = |k: usize| std_of(k) <= PINNED_STD && vals[k] > floor;
     let rank = (0..dim).filter(|&k| pinned_dir(k)).count();
     // Quantity with gradient g in natural coordinates: (pinned?, std).
     let certainty = |g: &[f64; MAX_FREE]| -> (bool, f64) {

@@ -243,7 +243,7 @@ mod tests {
     use crate::synth::{synthesize, Buffers, Noise};
     use std::vec::Vec;
 
-    pub(crate) struct Owned {
+    pub struct Owned {
         pub dt: f32,
         pub v: Vec<f32>,
         pub tl: Vec<f32>,
@@ -391,5 +391,59 @@ mod tests {
             id.cost.rmse_omega
         );
         let _ = default_load_torque(&truth, 50.0);
+    }
+}
+#[cfg(test)]
+mod probe {
+    use super::tests::Owned;
+    use super::*;
+    use crate::profile::{Experiment, Profile};
+    use crate::synth::Noise;
+    #[test]
+    fn probe_eigs() {
+        for noise in [0.2f32, 0.01] {
+            let truth = ModelParams::SEED_MOTOR;
+            let exp = Experiment {
+                profile: Profile::Start,
+                voltage: 50.0,
+                duration: 20.0,
+                load_torque: 0.0,
+            };
+            let data = Owned::new(
+                &truth,
+                exp,
+                0.01,
+                2000,
+                Noise {
+                    omega: noise,
+                    current: 0.0,
+                },
+                5,
+            );
+            let rec = [data.record(false, false)];
+            let id = identify(
+                &rec,
+                &ProblemSpec::default(),
+                &IdentifyConfig::default_pipeline(2),
+                |_| ControlFlow::Continue(()),
+            )
+            .unwrap();
+            let floor = Objective::new(&rec)
+                .unwrap()
+                .cost(&truth)
+                .unwrap()
+                .rmse_omega;
+            std::eprintln!(
+                "noise {noise} rank {} rmse {} floor {floor} evals {} params {:?}",
+                id.identifiability.rank,
+                id.cost.rmse_omega,
+                id.evaluations,
+                id.params
+            );
+            for t in id.trace.iter() {
+                std::eprint!("({},{}) ", t.evaluations, t.best);
+            }
+            std::eprintln!();
+        }
     }
 }

@@ -148,6 +148,20 @@ impl<'r, 'a> Objective<'r, 'a> {
         cost.sse.is_finite().then_some(cost)
     }
 
+    /// Simulate record `index` with `p` from the same initial state the cost uses, writing
+    /// the speed and current readings.
+    pub fn simulate(
+        &self,
+        p: &ModelParams,
+        index: usize,
+        out_omega: &mut [f32],
+        out_current: &mut [f32],
+    ) -> Result<(), Error> {
+        let r = self.records.get(index).ok_or(Error::NoRecords)?;
+        let init = r.initial_state(p.get(ParamId::Kv), p.get(ParamId::B), self.sigma_omega);
+        crate::sim::simulate(p, r.dt, init, r.v, r.load, out_omega, out_current)
+    }
+
     /// Fitness ([`Cost::fitness`]) at unit point `u` of `space`, `INFINITY` if rejected.
     pub fn fitness(&self, space: &Space, u: &[f32]) -> f32 {
         self.cost(&space.params(u))

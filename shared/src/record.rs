@@ -65,30 +65,23 @@ impl<'a> Record<'a> {
         self.load.map_or(0.0, |l| l[k])
     }
 
-    /// Initial state of the simulation for this record and motor: speed from the mean of the
-    /// first four readings, or exactly rest when that mean is within three standard errors of
-    /// zero for speed noise `sigma_omega` (a record that starts indistinguishable from rest
-    /// starts at rest); current measured, or else the mechanical equilibrium
-    /// `Kv i = B w + tl` (seed Eq. 4 with dw/dt = 0), which is exact at rest and in steady state.
+    /// Initial state of the simulation for this record and motor: the first speed reading, or
+    /// exactly rest when it is within three standard deviations `sigma_omega` of zero (a record
+    /// that starts indistinguishable from rest starts at rest; averaging several readings
+    /// would misplace the start of a step response); the first current reading, or else the
+    /// mechanical equilibrium `Kv i = B w + tl` (seed Eq. 4 with dw/dt = 0), exact at rest and
+    /// in steady state.
     pub fn initial_state(&self, kv: f32, b: f32, sigma_omega: f32) -> InitialState {
-        let head = self.omega.len().min(4);
-        let mut omega = mean(&self.omega[..head]);
-        if omega.abs() <= 3.0 * sigma_omega / libm::sqrtf(head as f32) {
+        let mut omega = self.omega[0];
+        if omega.abs() <= 3.0 * sigma_omega {
             omega = 0.0;
         }
         let current = match self.current {
-            Some(c) => mean(&c[..head.min(1)]),
+            Some(c) => c[0],
             None => (b * omega + self.load_at(0)) / kv,
         };
         InitialState { current, omega }
     }
-}
-
-fn mean(x: &[f32]) -> f32 {
-    if x.is_empty() {
-        return 0.0;
-    }
-    x.iter().sum::<f32>() / x.len() as f32
 }
 
 /// Standard deviation of white measurement noise on a smooth signal, from its second

@@ -73,73 +73,55 @@ pub fn levenberg_marquardt(
     let dim = space.dim();
     let mut u = [0.0f32; MAX_FREE];
     u[..dim].copy_from_slice(&u0[..dim]);
-    let mut ne = objective.normal_equations(space, &u[..dim], cfg.h, false)?;
+    // Forward differences while far from the optimum; central ones (twice the cost, O(h^2)
+    // accurate) once forward ones stall, so that the last digits of an ill-conditioned fit
+    // are not lost to the O(h) error of a forward-difference gradient.
+    let mut central = false;
+    let mut ne = objective.normal_equations(space, &u[..dim], cfg.h, central)?;
     let mut evaluations = ne.simulations;
     let mut lambda = cfg.lambda0;
     let mut iterations = 0;
     let mut completed = true;
-    'outer: while iterations < cfg.max_iterations {
+    while iterations < cfg.max_iterations {
         iterations += 1;
-        let max_diag = (0..dim).map(|i| ne.jtj[i][i]).fold(0.0f64, f64::max);
-        if max_diag <= 0.0 {
-            break;
-        }
-        // Inner loop: raise damping until a step lowers the cost.
-        loop {
-            let mut a = ne.jtj;
-            for (i, row) in a.iter_mut().enumerate().take(dim) {
-                row[i] += lambda * (ne.jtj[i][i] + 1e-9 * max_diag);
-            }
-            // Minimising |r|^2 with r = measured - sim: J^T J du = -J^T r.
-            let mut rhs: Vector = [0.0; MAX_FREE];
-            for i in 0..dim {
-                rhs[i] = -ne.jtr[i];
-            }
-            let step = cholesky_solve(&a, &rhs, dim);
-            let mut trial = u;
-            if let Some(du) = step {
-                for i in 0..dim {
-                    trial[i] = (u[i] + du[i] as f32).clamp(0.0, 1.0);
-                }
-            }
-            let trial_cost = if step.is_some() && trial[..dim] != u[..dim] {
-                evaluations += 1;
-                objective.cost(&space.params(&trial[..dim]))
-            } else {
-                None
-            };
-            match trial_cost {
-                Some(c) if c.sse < ne.cost.sse => {
-                    let gain = (ne.cost.sse - c.sse) / ne.cost.sse.max(f64::MIN_POSITIVE);
-                    u = trial;
-                    lambda = (lambda / 5.0).max(1e-12);
-                    match objective.normal_equations(space, &u[..dim], cfg.h, false) {
-                        Some(n) => {
-                            evaluations += n.simulations;
-                            ne = n;
-                        }
-                        None => break 'outer,
-                    }
-                    let report = LmProgress {
-                        iteration: iterations,
-                        evaluations,
-                        cost: ne.cost,
-                    };
-                    if progress(&report).is_break() {
-                        completed = false;
-                        break 'outer;
-                    }
-                    if gain < cfg.rel_tol {
-                        break 'outer;
-                    }
+        let stalled = match lm_step(objective, space, &mut u, &mut ne, &mut lambda, cfg, central) {
+            StepOutcome::Improved {
+                gain,
+                evaluations: e,
+            } => {
+                evaluations += e;
+                let report = LmProgress {
+                    iteration: iterations,
+                    evaluations,
+                    cost: ne.cost,
+                };
+                if progress(&report).is_break() {
+                    completed = false;
                     break;
                 }
-                _ => {
-                    lambda *= 4.0;
-                    if lambda > 1e10 {
-                        break 'outer;
-                    }
+                gain < cfg.rel_tol
+            }
+            StepOutcome::Stalled { evaluations: e } => {
+                evaluations += e;
+                true
+            }
+            StepOutcome::Failed { evaluations: e } => {
+                evaluations += e;
+                break;
+            }
+        };
+        if stalled {
+            if central {
+                break;
+            }
+            central = true;
+            lambda = cfg.lambda0;
+            match objective.normal_equations(space, &u[..dim], cfg.h, central) {
+                Some(n) => {
+                    evaluations += n.simulations;
+                    ne = n;
                 }
+                None => break,
             }
         }
     }
@@ -150,4 +132,76 @@ pub fn levenberg_marquardt(
         iterations,
         completed,
     })
+}
+
+enum StepOutcome {
+    /// A step was accepted; `gain` is the relative SSE decrease.
+    Improved { gain: f64, evaluations: u32 },
+    /// No step lowers the cost, whatever the damping.
+    Stalled { evaluations: u32 },
+    /// The new point's Jacobian could not be simulated.
+    Failed { evaluations: u32 },
+}
+
+/// One Levenberg-Marquardt iteration: raise the damping until a step lowers the cost, then
+/// take it and recompute the normal equations there.
+fn lm_step(
+    objective: &Objective,
+    space: &Space,
+    u: &mut [f32; MAX_FREE],
+    ne: &mut crate::objective::NormalEquations,
+    lambda: &mut f64,
+    cfg: &LmConfig,
+    central: bool,
+) -> StepOutcome {
+    let dim = space.dim();
+    let mut evaluations = 0;
+    let max_diag = (0..dim).map(|i| ne.jtj[i][i]).fold(0.0f64, f64::max);
+    if max_diag <= 0.0 {
+        return StepOutcome::Stalled { evaluations };
+    }
+    while *lambda <= 1e10 {
+        let mut a = ne.jtj;
+        for (i, row) in a.iter_mut().enumerate().take(dim) {
+            row[i] += *lambda * (ne.jtj[i][i] + 1e-9 * max_diag);
+        }
+        // Minimising |r|^2 with r = measured - sim: (J^T J + damping) du = -J^T r.
+        let mut rhs: Vector = [0.0; MAX_FREE];
+        for i in 0..dim {
+            rhs[i] = -ne.jtr[i];
+        }
+        let mut trial = *u;
+        let moved = match cholesky_solve(&a, &rhs, dim) {
+            Some(du) => {
+                for i in 0..dim {
+                    trial[i] = (u[i] + du[i] as f32).clamp(0.0, 1.0);
+                }
+                trial[..dim] != u[..dim]
+            }
+            None => false,
+        };
+        let trial_cost = if moved {
+            evaluations += 1;
+            objective.cost(&space.params(&trial[..dim]))
+        } else {
+            None
+        };
+        match trial_cost {
+            Some(c) if c.sse < ne.cost.sse => {
+                let gain = (ne.cost.sse - c.sse) / ne.cost.sse.max(f64::MIN_POSITIVE);
+                *u = trial;
+                *lambda = (*lambda / 5.0).max(1e-12);
+                return match objective.normal_equations(space, &u[..dim], cfg.h, central) {
+                    Some(n) => {
+                        evaluations += n.simulations;
+                        *ne = n;
+                        StepOutcome::Improved { gain, evaluations }
+                    }
+                    None => StepOutcome::Failed { evaluations },
+                };
+            }
+            _ => *lambda *= 4.0,
+        }
+    }
+    StepOutcome::Stalled { evaluations }
 }

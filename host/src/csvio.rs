@@ -1,0 +1,281 @@
+//! Record CSV (DESIGN.md contract): a header row; columns `t` (s, uniform step), `v` (V),
+//! `omega` (rad/s), optional `i` (A), optional `tl` (N m); other columns ignored. Plus the
+//! oscilloscope import of the seed's workflow (tacho volts to rad/s).
+
+use anyhow::{anyhow, bail, Context, Result};
+use motor_id_shared::record::MIN_SAMPLES;
+use motor_id_shared::Record;
+use std::path::{Path, PathBuf};
+
+/// Largest relative deviation of one time step from the mean step.
+const STEP_TOLERANCE: f64 = 0.01;
+
+/// A record read from or written to CSV.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnedRecord {
+    /// Where it came from (for messages).
+    pub path: PathBuf,
+    /// Time of the first sample [s].
+    pub t0: f64,
+    /// Sample step [s].
+    pub dt: f32,
+    /// Armature voltage [V].
+    pub v: Vec<f32>,
+    /// Speed [rad/s].
+    pub omega: Vec<f32>,
+    /// Armature current [A].
+    pub current: Option<Vec<f32>>,
+    /// Known load torque [N m].
+    pub load: Option<Vec<f32>>,
+}
+
+impl OwnedRecord {
+    /// Borrow as the core's record; `use_current = false` drops the current column.
+    pub fn as_record(&self, use_current: bool) -> Record<'_> {
+        Record {
+            dt: self.dt,
+            v: &self.v,
+            omega: &self.omega,
+            current: self.current.as_deref().filter(|_| use_current),
+            load: self.load.as_deref(),
+        }
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.v.len()
+    }
+
+    /// Time of sample `k`.
+    pub fn time(&self, k: usize) -> f64 {
+        self.t0 + k as f64 * self.dt as f64
+    }
+
+    /// File name for messages.
+    pub fn name(&self) -> String {
+        self.path.display().to_string()
+    }
+
+    /// Read and validate a record CSV.
+    pub fn read(path: &Path) -> Result<OwnedRecord> {
+        read_record(path).with_context(|| path.display().to_string())
+    }
+
+    /// Write as record CSV.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let mut w = csv::Writer::from_path(path)
+            .with_context(|| format!("cannot create {}", path.display()))?;
+        let mut header = vec!["t", "v", "omega"];
+        if self.current.is_some() {
+            header.push("i");
+        }
+        if self.load.is_some() {
+            header.push("tl");
+        }
+        w.write_record(&header)?;
+        for k in 0..self.len() {
+            let mut row = vec![
+                format!("{}", self.time(k)),
+                self.v[k].to_string(),
+                self.omega[k].to_string(),
+            ];
+            if let Some(c) = &self.current {
+                row.push(c[k].to_string());
+            }
+            if let Some(l) = &self.load {
+                row.push(l[k].to_string());
+            }
+            w.write_record(&row)?;
+        }
+        w.flush()
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        Ok(())
+    }
+}
+
+fn read_record(path: &Path) -> Result<OwnedRecord> {
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .map_err(|e| anyhow!("cannot open: {}", csv_message(&e)))?;
+    let header = reader
+        .headers()
+        .map_err(|e| anyhow!("{}", csv_message(&e)))?
+        .clone();
+    if header.is_empty() {
+        bail!("empty file");
+    }
+    let col = |name: &str| header.iter().position(|h| h == name);
+    let (t_col, v_col, w_col) = match (col("t"), col("v"), col("omega")) {
+        (Some(t), Some(v), Some(w)) => (t, v, w),
+        _ => {
+            let missing: Vec<&str> = ["t", "v", "omega"]
+                .into_iter()
+                .filter(|c| col(c).is_none())
+                .collect();
+            bail!(
+                "missing column(s) {} (header is '{}'; need t, v, omega, optional i, tl)",
+                missing.join(", "),
+                header.iter().collect::<Vec<_>>().join(",")
+            );
+        }
+    };
+    let (i_col, tl_col) = (col("i"), col("tl"));
+    let mut t = Vec::new();
+    let mut v = Vec::new();
+    let mut omega = Vec::new();
+    let mut current = i_col.map(|_| Vec::new());
+    let mut load = tl_col.map(|_| Vec::new());
+    for (row, result) in reader.records().enumerate() {
+        let line = row + 2;
+        let rec = result.map_err(|e| anyhow!("line {line}: {}", csv_message(&e)))?;
+        let field = |c: usize, name: &str| -> Result<f64> {
+            let text = rec
+                .get(c)
+                .ok_or_else(|| anyhow!("line {line}: column {name} is missing"))?;
+            let x: f64 = text
+                .parse()
+                .map_err(|_| anyhow!("line {line}: {name} = '{text}' is not a number"))?;
+            if !x.is_finite() {
+                bail!("line {line}: {name} = '{text}' is not finite");
+            }
+            Ok(x)
+        };
+        t.push(field(t_col, "t")?);
+        v.push(field(v_col, "v")? as f32);
+        omega.push(field(w_col, "omega")? as f32);
+        if let (Some(c), Some(out)) = (i_col, current.as_mut()) {
+            out.push(field(c, "i")? as f32);
+        }
+        if let (Some(c), Some(out)) = (tl_col, load.as_mut()) {
+            out.push(field(c, "tl")? as f32);
+        }
+    }
+    if t.is_empty() {
+        bail!("no data rows");
+    }
+    if t.len() < MIN_SAMPLES {
+        bail!("only {} data rows (need at least {MIN_SAMPLES})", t.len());
+    }
+    let dt = uniform_step(&t)?;
+    let rec = OwnedRecord {
+        path: path.to_path_buf(),
+        t0: t[0],
+        dt,
+        v,
+        omega,
+        current,
+        load,
+    };
+    rec.as_record(true).validate().map_err(|e| anyhow!("{e}"))?;
+    Ok(rec)
+}
+
+/// The mean step of strictly increasing, uniformly spaced times.
+fn uniform_step(t: &[f64]) -> Result<f32> {
+    let n = t.len();
+    let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
+    for k in 1..n {
+        let step = t[k] - t[k - 1];
+        if step <= 0.0 {
+            bail!(
+                "time is not increasing at line {} (t = {} after {})",
+                k + 2,
+                t[k],
+                t[k - 1]
+            );
+        }
+        if (step - dt).abs() > STEP_TOLERANCE * dt {
+            bail!(
+                "time step is not uniform at line {}: {step} s where the mean step is {dt} s",
+                k + 2
+            );
+        }
+    }
+    Ok(dt as f32)
+}
+
+fn csv_message(e: &csv::Error) -> String {
+    match e.kind() {
+        csv::ErrorKind::Io(io) => io.to_string(),
+        csv::ErrorKind::UnequalLengths {
+            expected_len, len, ..
+        } => {
+            format!("{len} fields where the header has {expected_len}")
+        }
+        csv::ErrorKind::Utf8 { .. } => "not UTF-8 text".into(),
+        _ => e.to_string(),
+    }
+}
+
+/// How to turn an oscilloscope trace of tacho volts into a record.
+#[derive(Clone, Debug)]
+pub struct ScopeImport {
+    /// Tacho gain [rad/s per V] (the seed's 35).
+    pub gain: f32,
+    /// The trace was captured inverted (the seed's "inverted option"): negate it.
+    pub inverted: bool,
+    /// Zero-based column of time.
+    pub time_column: usize,
+    /// Zero-based column of the tacho channel.
+    pub channel: usize,
+    /// Armature voltage applied [V].
+    pub voltage: f32,
+    /// Time at which the voltage is switched on [s]; before it 0 V.
+    pub step_at: f64,
+}
+
+/// Read a scope CSV: lines whose needed fields are not numbers (headers, units, settings)
+/// are skipped; the rest must be uniform in time.
+pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let sep = if text.lines().any(|l| l.contains(';')) && !text.lines().any(|l| l.contains(',')) {
+        ';'
+    } else {
+        ','
+    };
+    let mut t = Vec::new();
+    let mut omega = Vec::new();
+    for line in text.lines() {
+        let fields: Vec<&str> = line
+            .split(sep)
+            .map(|f| f.trim().trim_matches('"'))
+            .collect();
+        let get = |c: usize| {
+            fields
+                .get(c)
+                .and_then(|f| f.parse::<f64>().ok())
+                .filter(|x| x.is_finite())
+        };
+        if let (Some(time), Some(volts)) = (get(s.time_column), get(s.channel)) {
+            t.push(time);
+            let w = volts as f32 * s.gain;
+            omega.push(if s.inverted { -w } else { w });
+        }
+    }
+    let context = || path.display().to_string();
+    if t.len() < MIN_SAMPLES {
+        return Err(anyhow!(
+            "found {} numeric rows in columns {} and {} (need at least {MIN_SAMPLES})",
+            t.len(),
+            s.time_column,
+            s.channel
+        ))
+        .with_context(context);
+    }
+    let dt = uniform_step(&t).with_context(context)?;
+    let v = t
+        .iter()
+        .map(|&ti| if ti >= s.step_at { s.voltage } else { 0.0 })
+        .collect();
+    Ok(OwnedRecord {
+        path: path.to_path_buf(),
+        t0: t[0],
+        dt,
+        v,
+        omega,
+        current: None,
+        load: None,
+    })
+}

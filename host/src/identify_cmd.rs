@@ -1,0 +1,310 @@
+//! `motor-id identify`, `import-scope` and `demo`.
+
+use crate::cli::FitOptions;
+use crate::csvio::{import_scope as read_scope, OwnedRecord, ScopeImport};
+use crate::plot::{draw, Panel, Series};
+use crate::progress::FitProgress;
+use crate::report::{identify_json, summary};
+use crate::simulate_cmd::{simulate, SimulateArgs};
+use crate::spec::problem;
+use anyhow::{anyhow, Context, Result};
+use clap::Args;
+use motor_id_shared::identify::{identify, Identification, IdentifyConfig};
+use motor_id_shared::objective::Objective;
+use motor_id_shared::space::ProblemSpec;
+use motor_id_shared::Record;
+use plotters::style::{RGBColor, BLUE, RED};
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `identify`.
+#[derive(Args, Debug)]
+pub struct IdentifyArgs {
+    /// Record CSV files (columns t, v, omega, optional i, tl), fitted jointly.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    #[command(flatten)]
+    pub fit: FitOptions,
+    /// Write the JSON report here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write a PNG plot (measured vs fitted speed, residual, convergence) here.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// Everything one identification produced.
+pub struct Fit {
+    /// Problem solved.
+    pub spec: ProblemSpec,
+    /// Result.
+    pub result: Identification,
+    /// Whether current was fitted.
+    pub with_current: bool,
+}
+
+/// Identify from loaded records.
+pub fn fit(records: &[OwnedRecord], opts: &FitOptions) -> Result<Fit> {
+    let spec = problem(&opts.bounds, &opts.fix)?;
+    let with_current = !opts.speed_only && records.iter().all(|r| r.current.is_some());
+    let borrowed: Vec<Record> = records.iter().map(|r| r.as_record(with_current)).collect();
+    let cfg = if opts.paper {
+        IdentifyConfig::paper_faithful(opts.seed)
+    } else {
+        IdentifyConfig::default_pipeline(opts.seed)
+    };
+    let bar = FitProgress::new(opts.quiet);
+    let result = identify(&borrowed, &spec, &cfg, |p| {
+        bar.update(p);
+        ControlFlow::Continue(())
+    });
+    bar.finish();
+    let result = result.map_err(|e| anyhow!("identification failed: {e}"))?;
+    Ok(Fit {
+        spec,
+        result,
+        with_current,
+    })
+}
+
+fn load(files: &[PathBuf]) -> Result<Vec<OwnedRecord>> {
+    files.iter().map(|f| OwnedRecord::read(f)).collect()
+}
+
+/// Run `identify`.
+pub fn run(a: &IdentifyArgs) -> Result<()> {
+    let records = load(&a.files)?;
+    let f = fit(&records, &a.fit)?;
+    let samples: usize = records.iter().map(|r| r.len()).sum();
+    print!("{}", summary(&f.result, &f.spec, samples, f.with_current));
+    let names: Vec<String> = records.iter().map(|r| r.name()).collect();
+    if let Some(path) = &a.json {
+        let mode = if a.fit.paper { "paper" } else { "default" };
+        let json = identify_json(&f.result, &f.spec, &names, a.fit.seed, mode);
+        write_json(path, &json)?;
+    }
+    if let Some(path) = &a.plot {
+        plot_fit(path, &records, &f)?;
+    }
+    Ok(())
+}
+
+/// Write pretty JSON.
+pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
+    let text = serde_json::to_string_pretty(value).expect("JSON values always serialise");
+    std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Measured vs fitted speed, residual, convergence.
+pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
+    let borrowed: Vec<Record> = records
+        .iter()
+        .map(|r| r.as_record(f.with_current))
+        .collect();
+    let objective = Objective::new(&borrowed).map_err(|e| anyhow!("{e}"))?;
+    // Records side by side on one time axis.
+    let (mut t, mut measured, mut fitted, mut residual) = (vec![], vec![], vec![], vec![]);
+    let mut offset = 0.0;
+    for (k, r) in records.iter().enumerate() {
+        let mut w = vec![0.0; r.len()];
+        let mut i = vec![0.0; r.len()];
+        objective
+            .simulate(&f.result.params, k, &mut w, &mut i)
+            .map_err(|e| anyhow!("{e}"))?;
+        for s in 0..r.len() {
+            t.push(offset + s as f64 * r.dt as f64);
+            measured.push(r.omega[s]);
+            fitted.push(w[s]);
+            residual.push(r.omega[s] - w[s]);
+        }
+        offset += r.len() as f64 * r.dt as f64;
+    }
+    let evals: Vec<f64> = f
+        .result
+        .trace
+        .iter()
+        .map(|p| p.evaluations as f64)
+        .collect();
+    let best: Vec<f32> = f.result.trace.iter().map(|p| p.best).collect();
+    let green = RGBColor(0, 140, 0);
+    let panels = [
+        Panel {
+            title: format!(
+                "speed: measured vs fitted (rmse {:.4} rad/s)",
+                f.result.cost.rmse_omega
+            ),
+            x_label: "t [s] (records side by side)",
+            y_label: "omega [rad/s]",
+            series: vec![
+                Series {
+                    label: "measured",
+                    x: &t,
+                    y: &measured,
+                    color: BLUE,
+                },
+                Series {
+                    label: "fitted",
+                    x: &t,
+                    y: &fitted,
+                    color: RED,
+                },
+            ],
+            log_y: false,
+        },
+        Panel {
+            title: "residual (measured - fitted)".into(),
+            x_label: "t [s]",
+            y_label: "omega error [rad/s]",
+            series: vec![Series {
+                label: "residual",
+                x: &t,
+                y: &residual,
+                color: green,
+            }],
+            log_y: false,
+        },
+        Panel {
+            title: "convergence (seed Fig. 10)".into(),
+            x_label: "model evaluations",
+            y_label: "best fitness [rad/s]",
+            series: vec![Series {
+                label: "best",
+                x: &evals,
+                y: &best,
+                color: BLUE,
+            }],
+            log_y: true,
+        },
+    ];
+    draw(path, &panels)
+}
+
+/// Arguments of `import-scope`.
+#[derive(Args, Debug)]
+pub struct ScopeArgs {
+    /// Oscilloscope CSV (time and channel columns; header and settings lines are skipped).
+    pub file: PathBuf,
+    /// Output record CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Tacho gain [rad/s per V] (the seed's tacho: 35).
+    #[arg(long)]
+    pub tacho_gain: f32,
+    /// The trace was captured with the scope's inverted option: negate it.
+    #[arg(long)]
+    pub inverted: bool,
+    /// Armature voltage applied [V].
+    #[arg(long)]
+    pub voltage: f32,
+    /// Time at which the voltage was switched on [s] (before it: 0 V).
+    #[arg(long, default_value_t = 0.0)]
+    pub step_at: f64,
+    /// Zero-based column of time.
+    #[arg(long, default_value_t = 0)]
+    pub time_column: usize,
+    /// Zero-based column of the tacho channel.
+    #[arg(long, default_value_t = 1)]
+    pub channel: usize,
+}
+
+/// Run `import-scope`.
+pub fn import_scope(a: &ScopeArgs) -> Result<()> {
+    if !(a.tacho_gain.is_finite() && a.tacho_gain != 0.0) {
+        return Err(anyhow!("--tacho-gain must be a non-zero number"));
+    }
+    if !a.voltage.is_finite() || !a.step_at.is_finite() {
+        return Err(anyhow!("--voltage and --step-at must be finite"));
+    }
+    let s = ScopeImport {
+        gain: a.tacho_gain,
+        inverted: a.inverted,
+        time_column: a.time_column,
+        channel: a.channel,
+        voltage: a.voltage,
+        step_at: a.step_at,
+    };
+    let rec = read_scope(&a.file, &s)?;
+    rec.write(&a.out)?;
+    eprintln!(
+        "wrote {} samples at {} s step to {}",
+        rec.len(),
+        rec.dt,
+        a.out.display()
+    );
+    Ok(())
+}
+
+/// Arguments of `demo`.
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Directory for the demo's CSV, JSON and PNG files.
+    #[arg(long, default_value = "demo-out")]
+    pub out_dir: PathBuf,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Run `demo`.
+pub fn demo(a: &DemoArgs) -> Result<()> {
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    let csv = a.out_dir.join("seed_motor_steps.csv");
+    let sim = SimulateArgs {
+        motor: None,
+        profile: "steps".into(),
+        out: csv.clone(),
+        effect: vec![],
+        noise_omega: 0.5,
+        noise_current: 0.02,
+        rate: 100.0,
+        seed: a.seed,
+        duration: Some(30.0),
+        voltage: 50.0,
+        load_torque: None,
+        speed_only: false,
+    };
+    let rec = simulate(&sim)?;
+    rec.write(&csv)?;
+    println!(
+        "simulated the seed's motor (ra 3.412, la 0.0573, j 0.0424, b 0.00267, kv 0.1604): \
+         voltage steps 25 -> 50 -> 12.5 V, {} samples at 100 Hz, noise 0.5 rad/s and 0.02 A -> {}",
+        rec.len(),
+        csv.display()
+    );
+    let records = [rec];
+    for (label, speed_only, stem) in [
+        ("speed only, as the seed paper fits", true, "speed_only"),
+        (
+            "speed and current, as a drive board measures",
+            false,
+            "with_current",
+        ),
+    ] {
+        println!("\n== identify from {label}");
+        let opts = FitOptions {
+            seed: a.seed,
+            speed_only,
+            quiet: a.quiet,
+            ..FitOptions::default()
+        };
+        let f = fit(&records, &opts)?;
+        print!(
+            "{}",
+            summary(&f.result, &f.spec, records[0].len(), f.with_current)
+        );
+        let json = a.out_dir.join(format!("{stem}.json"));
+        let names = vec![csv.display().to_string()];
+        write_json(
+            &json,
+            &identify_json(&f.result, &f.spec, &names, a.seed, "default"),
+        )?;
+        let png = a.out_dir.join(format!("{stem}.png"));
+        plot_fit(&png, &records, &f)?;
+        println!("report {} and plot {}", json.display(), png.display());
+    }
+    Ok(())
+}

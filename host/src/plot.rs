@@ -1,0 +1,137 @@
+//! PNG plots (plotters bitmap backend; text through ab_glyph with the bundled DejaVu font,
+//! so no system font library is needed).
+
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+use std::path::Path;
+use std::sync::Once;
+
+/// Most points drawn per series (longer series are decimated).
+const MAX_POINTS: usize = 4000;
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The bundled font always parses; a failure would only lose text.
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
+    });
+}
+
+/// One line of a panel.
+pub struct Series<'a> {
+    /// Legend label.
+    pub label: &'a str,
+    /// x values.
+    pub x: &'a [f64],
+    /// y values.
+    pub y: &'a [f32],
+    /// Colour.
+    pub color: RGBColor,
+}
+
+/// One panel: title, axis labels, lines; `log_y` for convergence plots.
+pub struct Panel<'a> {
+    /// Title.
+    pub title: String,
+    /// x axis label.
+    pub x_label: &'a str,
+    /// y axis label.
+    pub y_label: &'a str,
+    /// Lines.
+    pub series: Vec<Series<'a>>,
+    /// Logarithmic y axis.
+    pub log_y: bool,
+}
+
+fn decimated(s: &Series) -> Vec<(f64, f64)> {
+    let n = s.x.len().min(s.y.len());
+    let stride = n.div_ceil(MAX_POINTS).max(1);
+    (0..n)
+        .step_by(stride)
+        .map(|k| (s.x[k], s.y[k] as f64))
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect()
+}
+
+fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values {
+        if log && v <= 0.0 {
+            continue;
+        }
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() || !hi.is_finite() {
+        return if log { (1e-3, 1.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        return (lo / 1.5, hi * 1.5);
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-9 + lo.abs() * 1e-6);
+    (lo - pad, hi + pad)
+}
+
+/// Draw `panels` stacked vertically into a PNG.
+pub fn draw(path: &Path, panels: &[Panel]) -> Result<()> {
+    register_font();
+    let height = 330 * panels.len() as u32;
+    let root = BitMapBackend::new(path, (1200, height)).into_drawing_area();
+    let err = |e: &dyn std::fmt::Display| anyhow!("cannot draw {}: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let areas = root.split_evenly((panels.len(), 1));
+    for (panel, area) in panels.iter().zip(areas.iter()) {
+        let points: Vec<Vec<(f64, f64)>> = panel.series.iter().map(decimated).collect();
+        let (x0, x1) = range(points.iter().flatten().map(|p| p.0), false);
+        let (y0, y1) = range(points.iter().flatten().map(|p| p.1), panel.log_y);
+        let mut builder = ChartBuilder::on(area);
+        builder
+            .caption(&panel.title, ("sans-serif", 20))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(80);
+        macro_rules! finish {
+            ($chart:expr) => {{
+                let mut chart = $chart;
+                chart
+                    .configure_mesh()
+                    .x_desc(panel.x_label)
+                    .y_desc(panel.y_label)
+                    .label_style(("sans-serif", 14))
+                    .draw()
+                    .map_err(|e| err(&e))?;
+                for (s, pts) in panel.series.iter().zip(points.iter()) {
+                    let color = s.color;
+                    chart
+                        .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(1)))
+                        .map_err(|e| err(&e))?
+                        .label(s.label)
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+                }
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.8))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 14))
+                    .draw()
+                    .map_err(|e| err(&e))?;
+            }};
+        }
+        if panel.log_y {
+            finish!(builder
+                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+                .map_err(|e| err(&e))?);
+        } else {
+            finish!(builder
+                .build_cartesian_2d(x0..x1, y0..y1)
+                .map_err(|e| err(&e))?);
+        }
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}

@@ -1,0 +1,152 @@
+//! `motor-id simulate`: an experiment on a simulated motor, written as record CSV.
+
+use crate::csvio::OwnedRecord;
+use crate::spec::{apply_effect, parse_motor};
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+use motor_id_shared::profile::{default_load_torque, settling_duration, Experiment, Profile};
+use motor_id_shared::synth::{synthesize, Buffers, Noise};
+use motor_id_shared::ModelParams;
+use std::path::PathBuf;
+
+/// Most samples one simulation may write.
+const MAX_SAMPLES: usize = 20_000_000;
+
+/// Arguments of `simulate`.
+#[derive(Args, Debug, Clone)]
+pub struct SimulateArgs {
+    /// Motor parameters `ra=..,la=..,j=..,b=..,kv=..` (default: the seed's identified motor
+    /// ra=3.412,la=0.0573,j=0.0424,b=0.00267,kv=0.1604).
+    #[arg(long, value_name = "ra=..,la=..,j=..,b=..,kv=..")]
+    pub motor: Option<String>,
+    /// Experiment: start, steps, load or reversal.
+    #[arg(long, default_value = "start")]
+    pub profile: String,
+    /// Output record CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Add an effect, e.g. `coulomb_friction:tc=0.05` (repeatable).
+    #[arg(long, value_name = "NAME:key=val,...")]
+    pub effect: Vec<String>,
+    /// Standard deviation of white noise on the speed reading [rad/s].
+    #[arg(long, default_value_t = 0.0)]
+    pub noise_omega: f32,
+    /// Standard deviation of white noise on the current reading [A].
+    #[arg(long, default_value_t = 0.0)]
+    pub noise_current: f32,
+    /// Sample rate [Hz].
+    #[arg(long, default_value_t = 1000.0)]
+    pub rate: f64,
+    /// Noise seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Length [s] (default: five slowest time constants per profile segment).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Full armature voltage [V].
+    #[arg(long, default_value_t = 50.0)]
+    pub voltage: f32,
+    /// Load torque of the `load` profile [N m] (default: 20 % of stall torque).
+    #[arg(long)]
+    pub load_torque: Option<f32>,
+    /// Leave the current column out of the CSV (a tacho-only record, as in the seed).
+    #[arg(long)]
+    pub speed_only: bool,
+}
+
+/// Run `simulate`.
+pub fn run(a: &SimulateArgs) -> Result<()> {
+    let rec = simulate(a)?;
+    rec.write(&a.out)?;
+    eprintln!(
+        "wrote {} samples ({} s at {} Hz) to {}",
+        rec.len(),
+        rec.len() as f64 * rec.dt as f64,
+        a.rate,
+        a.out.display()
+    );
+    Ok(())
+}
+
+/// Build the simulated record described by `a`.
+pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
+    let mut p = match &a.motor {
+        Some(text) => parse_motor(text)?,
+        None => ModelParams::SEED_MOTOR,
+    };
+    for e in &a.effect {
+        apply_effect(&mut p, e)?;
+    }
+    let profile = Profile::from_name(&a.profile).ok_or_else(|| {
+        anyhow!(
+            "--profile: unknown profile '{}' (known: start, steps, load, reversal)",
+            a.profile
+        )
+    })?;
+    if !(a.rate.is_finite() && a.rate > 0.0) {
+        bail!("--rate must be a positive number of Hz");
+    }
+    for (name, x) in [
+        ("--noise-omega", a.noise_omega),
+        ("--noise-current", a.noise_current),
+    ] {
+        if !(x.is_finite() && x >= 0.0) {
+            bail!("{name} must be >= 0");
+        }
+    }
+    if !a.voltage.is_finite() {
+        bail!("--voltage must be finite");
+    }
+    let duration = match a.duration {
+        Some(d) if d.is_finite() && d > 0.0 => d,
+        Some(_) => bail!("--duration must be > 0"),
+        None => (settling_duration(&p, profile) as f64).clamp(0.05, 120.0),
+    };
+    let n = (duration * a.rate).round() as usize;
+    if n < motor_id_shared::record::MIN_SAMPLES {
+        bail!("{duration} s at {} Hz gives only {n} samples", a.rate);
+    }
+    if n > MAX_SAMPLES {
+        bail!(
+            "{duration} s at {} Hz gives {n} samples (at most {MAX_SAMPLES})",
+            a.rate
+        );
+    }
+    let load_torque = match a.load_torque {
+        Some(t) if t.is_finite() => t,
+        Some(_) => bail!("--load-torque must be finite"),
+        None => default_load_torque(&p, a.voltage),
+    };
+    let experiment = Experiment {
+        profile,
+        voltage: a.voltage,
+        duration: duration as f32,
+        load_torque,
+    };
+    let dt = (1.0 / a.rate) as f32;
+    let (mut v, mut tl, mut omega, mut current) =
+        (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let noise = Noise {
+        omega: a.noise_omega,
+        current: a.noise_current,
+    };
+    let buffers = Buffers {
+        v: &mut v,
+        tl: &mut tl,
+        omega: &mut omega,
+        current: &mut current,
+    };
+    synthesize(&p, &experiment, dt, noise, a.seed, buffers).map_err(|e| anyhow!("{e}"))?;
+    if let Some(k) = omega.iter().position(|x| !x.is_finite()) {
+        bail!("the simulation left finite numbers at sample {k}: check the motor parameters");
+    }
+    Ok(OwnedRecord {
+        path: a.out.clone(),
+        t0: 0.0,
+        dt,
+        v,
+        omega,
+        current: (!a.speed_only).then_some(current),
+        load: experiment.has_load().then_some(tl),
+    })
+}
