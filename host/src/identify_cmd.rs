@@ -111,11 +111,11 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
         objective
             .simulate(&f.result.params, k, &mut w, &mut i)
             .map_err(|e| anyhow!("{e}"))?;
-        for s in 0..r.len() {
+        for (s, (&m, &sim)) in r.omega.iter().zip(w.iter()).enumerate() {
             t.push(offset + s as f64 * r.dt as f64);
-            measured.push(r.omega[s]);
-            fitted.push(w[s]);
-            residual.push(r.omega[s] - w[s]);
+            measured.push(m);
+            fitted.push(sim);
+            residual.push(m - sim);
         }
         offset += r.len() as f64 * r.dt as f64;
     }

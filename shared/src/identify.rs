@@ -206,11 +206,9 @@ pub fn identify(
             });
             let Some(r) = result else { continue };
             evaluations += r.evaluations;
-            if r.cost.sse < cost.sse || start == 0 {
-                if r.cost.sse < cost.sse {
-                    u = r.u;
-                    cost = r.cost;
-                }
+            if r.cost.sse < cost.sse {
+                u = r.u;
+                cost = r.cost;
             }
             if !r.completed {
                 completed = false;

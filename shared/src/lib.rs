@@ -7,6 +7,8 @@
 //! multiply-add, so the same data and seed give bit-identical results on host and board.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(missing_docs)]
+// Matrix and per-dimension loops read as the equations they implement.
+#![allow(clippy::needless_range_loop)]
 
 pub mod discretise;
 pub mod effects;

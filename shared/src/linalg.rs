@@ -20,7 +20,7 @@ pub fn cholesky_solve(a: &Mat, b: &Vector, n: usize) -> Option<Vector> {
                 s -= l[i][k] * l[j][k];
             }
             if i == j {
-                if !(s > 0.0) || !s.is_finite() {
+                if s.is_nan() || s <= 0.0 || !s.is_finite() {
                     return None;
                 }
                 l[i][i] = libm::sqrt(s);
