@@ -143,6 +143,18 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
         cfg: FfoConfig,
         dim: usize,
         seed: u64,
+        cost: impl FnMut(&[f32]) -> f32,
+    ) -> Result<Self, Error> {
+        Self::with_start(cfg, dim, seed, None, cost)
+    }
+
+    /// As [`Ffo::new`], with member 0 placed at `start` (e.g. an equation-error estimate)
+    /// instead of a random point; the random stream is the same either way.
+    pub fn with_start(
+        cfg: FfoConfig,
+        dim: usize,
+        seed: u64,
+        start: Option<&[f32]>,
         mut cost: impl FnMut(&[f32]) -> f32,
     ) -> Result<Self, Error> {
         let pop_n = cfg.population();
@@ -172,6 +184,11 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
         for m in 0..pop_n {
             for d in 0..dim {
                 f.pop[m][d] = rng::unit(&mut f.rng);
+            }
+            if let (0, Some(s)) = (m, start) {
+                for d in 0..dim {
+                    f.pop[0][d] = s[d].clamp(0.0, 1.0);
+                }
             }
             f.cost[m] = sanitize(cost(&f.pop[m][..dim]));
             f.evaluations += 1;

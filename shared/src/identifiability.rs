@@ -9,10 +9,13 @@
 //! eigen-decomposed; a direction is *pinned* when its standard deviation `1/sqrt(eig)` is at
 //! most [`PINNED_STD`] (10 % for a log coordinate) and its eigenvalue stands clear of the
 //! numerical floor of the finite-difference Jacobian (ten times the magnitude of the most
-//! negative eigenvalue, which exact arithmetic would make non-negative, and at least 1e-8 of the
-//! largest). A parameter or combination is pinned when
-//! its gradient has (almost) no component along the unpinned directions; its standard
-//! deviation is then taken from the pinned part of the spectrum.
+//! negative eigenvalue, which exact arithmetic would make non-negative, and at least 1e-8 of
+//! the largest). A parameter or combination gets the delta-method standard deviation over the
+//! directions above the floor plus, along each numerically flat direction, the spread of a
+//! uniform distribution over the part of that line inside the bounds (the data cannot say
+//! where on it the truth lies; the bounds can). It is pinned when that is at most
+//! [`PINNED_STD`] and its gradient has no more than a 1 % component along flat directions. So `kv` is pinned by a speed-only step when back-EMF dominates viscous
+//! friction (`Kv^2 >> Ra B`: then `Kv` is almost `c3/c1` anywhere in the box), and not otherwise.
 
 use crate::error::Error;
 use crate::linalg::symmetric_eigen;
@@ -22,9 +25,10 @@ use crate::space::{Scale, Space, MAX_FREE};
 
 /// Largest standard deviation (in natural coordinates) of a pinned direction.
 pub const PINNED_STD: f64 = 0.1;
-/// Largest share of a gradient's squared norm along unpinned directions for a quantity that
-/// is still called pinned.
-const UNPINNED_SHARE: f64 = 1e-2;
+/// Largest share of a gradient's squared norm along numerically flat directions for a
+/// quantity that may still be called pinned (a component of 1 %: the numerical accuracy of
+/// the eigenvectors there).
+const FLAT_SHARE: f64 = 1e-4;
 /// A pinned direction's eigenvalue must exceed the numerical floor by this factor.
 const NUMERICAL_MARGIN: f64 = 10.0;
 /// Finite-difference step (unit coordinates) of the central-difference Jacobian.
@@ -176,20 +180,58 @@ pub fn analyse(
     };
     let pinned_dir = |k: usize| std_of(k) <= PINNED_STD && vals[k] > floor;
     let rank = (0..dim).filter(|&k| pinned_dir(k)).count();
-    // Quantity with gradient g in natural coordinates: (pinned?, std).
+    // Along a numerically flat direction the data cannot tell where the truth lies, only the
+    // bounds can: its spread is that of a uniform distribution over the segment of the line
+    // through the estimate that stays inside the box.
+    let flat_std = |k: usize| -> f64 {
+        let (mut t_lo, mut t_hi) = (f64::NEG_INFINITY, f64::INFINITY);
+        for i in 0..dim {
+            let v = vecs[i][k];
+            if v.abs() < 1e-12 {
+                continue;
+            }
+            // Position in natural units measured from the lower and upper bound.
+            let span = free[i].natural_per_unit() as f64;
+            let below = -(u[i] as f64) * span;
+            let above = (1.0 - u[i] as f64) * span;
+            let (a, b) = if v > 0.0 {
+                (below / v, above / v)
+            } else {
+                (above / v, below / v)
+            };
+            t_lo = t_lo.max(a);
+            t_hi = t_hi.min(b);
+        }
+        if t_hi >= t_lo && t_hi.is_finite() && t_lo.is_finite() {
+            (t_hi - t_lo) / libm::sqrt(12.0)
+        } else {
+            0.0
+        }
+    };
+    let mut flat_stds = [0.0f64; MAX_FREE];
+    for k in 0..dim {
+        if vals[k] <= floor {
+            flat_stds[k] = flat_std(k);
+        }
+    }
+    // Quantity with gradient g in natural coordinates: (pinned?, std), by the delta method
+    // over the informed directions plus the bounded spread along the flat ones.
     let certainty = |g: &[f64; MAX_FREE]| -> (bool, f64) {
         let norm2: f64 = g[..dim].iter().map(|x| x * x).sum();
-        let mut unpinned = 0.0;
         let mut var = 0.0;
+        let mut flat = 0.0;
         for k in 0..dim {
             let proj: f64 = (0..dim).map(|i| vecs[i][k] * g[i]).sum();
-            if pinned_dir(k) {
-                var += proj * proj / vals[k];
+            var += if vals[k] > floor {
+                proj * proj / vals[k]
             } else {
-                unpinned += proj * proj;
-            }
+                flat += proj * proj;
+                let s = proj * flat_stds[k];
+                s * s
+            };
         }
-        (unpinned <= UNPINNED_SHARE * norm2, libm::sqrt(var))
+        let std = libm::sqrt(var);
+        (flat <= FLAT_SHARE * norm2 && std <= PINNED_STD, std)
     };
     let p = space.params(u);
     let mut params = heapless::Vec::new();

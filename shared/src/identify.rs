@@ -4,6 +4,7 @@
 use crate::error::Error;
 use crate::ffo::{Ffo, FfoConfig};
 use crate::identifiability::{analyse, Identifiability};
+use crate::initial::start;
 use crate::objective::{Cost, Objective};
 use crate::params::ModelParams;
 use crate::record::Record;
@@ -32,6 +33,12 @@ pub struct IdentifyConfig {
     pub seed: u64,
     /// Extra refinements from the next best FFO members when the first stops above the noise.
     pub restarts: u32,
+    /// Seed the search with the equation-error estimate of [`crate::initial`].
+    pub equation_error_start: bool,
+    /// Refine the equation-error start first and skip the FFO when that already reaches
+    /// the measured noise floor (saves most evaluations on a board; the noise floor is an
+    /// estimate, so the host pipeline searches anyway).
+    pub skip_search_at_floor: bool,
 }
 
 impl IdentifyConfig {
@@ -43,6 +50,17 @@ impl IdentifyConfig {
             log_scale: true,
             seed,
             restarts: 3,
+            equation_error_start: true,
+            skip_search_at_floor: false,
+        }
+    }
+
+    /// The pipeline for a drive board: as [`IdentifyConfig::default_pipeline`], but the FFO
+    /// only runs when refining the equation-error start does not reach the noise floor.
+    pub fn board(seed: u64) -> Self {
+        IdentifyConfig {
+            skip_search_at_floor: true,
+            ..Self::default_pipeline(seed)
         }
     }
 
@@ -55,6 +73,8 @@ impl IdentifyConfig {
             log_scale: false,
             seed,
             restarts: 0,
+            equation_error_start: false,
+            skip_search_at_floor: false,
         }
     }
 }
@@ -131,106 +151,202 @@ pub fn identify(
     records: &[Record],
     spec: &ProblemSpec,
     cfg: &IdentifyConfig,
-    mut progress: impl FnMut(&Progress) -> ControlFlow<()>,
+    progress: impl FnMut(&Progress) -> ControlFlow<()>,
 ) -> Result<Identification, Error> {
     let objective = Objective::new(records)?;
     let space = Space::new(spec, cfg.log_scale)?;
+    let mut run = Run {
+        objective: &objective,
+        space: &space,
+        cfg,
+        progress,
+        trace: heapless::Vec::new(),
+        evaluations: 0,
+        refine_iterations: 0,
+        best: None,
+        completed: true,
+    };
     let dim = space.dim();
-    let fitness = |u: &[f32]| objective.fitness(&space, u);
-    let mut ffo = Ffo::<MAX_POPULATION, MAX_FREE>::new(cfg.ffo, dim, cfg.seed, fitness)?;
-    let mut trace = heapless::Vec::new();
-    push_trace(
-        &mut trace,
-        TracePoint {
-            evaluations: ffo.evaluations(),
-            best: ffo.best().1,
-        },
-    );
-    let mut completed = true;
-    while !ffo.done() {
-        let p = ffo.step(fitness);
-        push_trace(
-            &mut trace,
-            TracePoint {
-                evaluations: p.evaluations,
-                best: p.best_cost,
-            },
-        );
-        let report = Progress {
-            stage: Stage::Search,
-            iteration: p.iteration,
-            iterations: cfg.ffo.iterations,
-            evaluations: p.evaluations,
-            best: p.best_cost,
-        };
-        if progress(&report).is_break() {
-            completed = false;
-            break;
-        }
-    }
-    let (best_u, best_fit) = ffo.best();
-    if !best_fit.is_finite() {
-        return Err(Error::NoFiniteCandidate);
-    }
-    let mut u = [0.0f32; MAX_FREE];
-    u[..dim].copy_from_slice(best_u);
-    let mut cost = objective
-        .cost(&space.params(&u[..dim]))
-        .ok_or(Error::NoFiniteCandidate)?;
-    let mut evaluations = ffo.evaluations() + 1;
-    if let (Some(lm), true) = (cfg.refine, completed) {
-        let floor = NOISE_FLOOR_FACTOR * objective.sigma_omega();
-        let mut refine_iterations = 0;
-        for start in 0..=cfg.restarts as usize {
-            let (u0, _) = ffo.ranked(start);
-            let base_evaluations = evaluations;
-            let best_so_far = cost.fitness();
-            let result = levenberg_marquardt(&objective, &space, u0, &lm, |lp| {
-                refine_iterations += 1;
-                let best = lp.cost.fitness().min(best_so_far);
-                let report = Progress {
-                    stage: Stage::Refine,
-                    iteration: refine_iterations,
-                    iterations: lm.max_iterations * (cfg.restarts + 1),
-                    evaluations: base_evaluations + lp.evaluations,
-                    best,
-                };
-                push_trace(
-                    &mut trace,
-                    TracePoint {
-                        evaluations: report.evaluations,
-                        best,
-                    },
-                );
-                progress(&report)
-            });
-            let Some(r) = result else { continue };
-            evaluations += r.evaluations;
-            if r.cost.sse < cost.sse {
-                u = r.u;
-                cost = r.cost;
+    // The default pipeline starts from an equation-error estimate; the paper-faithful one
+    // from random points only, as the seed does.
+    let start_u = if cfg.equation_error_start {
+        start(records, spec).map(|p| {
+            let mut full = spec.base;
+            for f in space.free() {
+                full.set(f.id, p.get(f.id));
             }
-            if !r.completed {
-                completed = false;
-                break;
-            }
-            if cost.fitness() <= floor {
-                break;
-            }
-        }
+            space.unit(&full)
+        })
+    } else {
+        None
+    };
+    let floor = NOISE_FLOOR_FACTOR * objective.sigma_omega();
+    if let (true, Some(u0), Some(_)) = (cfg.skip_search_at_floor, start_u, cfg.refine) {
+        run.refine(&u0[..dim]);
     }
+    let at_floor = run.best.is_some_and(|(_, c)| c.fitness() <= floor);
+    if !(at_floor && cfg.skip_search_at_floor) && run.completed {
+        // Seed the search with the better of the start and its refinement.
+        let seed_point = run.best.map(|(u, _)| u).or(start_u);
+        run.search(seed_point.as_ref().map(|u| &u[..dim]))?;
+    }
+    let (u, cost) = run.best.ok_or(Error::NoFiniteCandidate)?;
     let identifiability = analyse(&objective, &space, &u[..dim], &cost)?;
     Ok(Identification {
         params: space.params(&u[..dim]),
         cost,
-        evaluations,
+        evaluations: run.evaluations,
         analysis_evaluations: identifiability.evaluations,
-        trace,
+        trace: run.trace,
         identifiability,
         sigma_omega: objective.sigma_omega(),
         sigma_current: objective.sigma_current(),
-        completed,
+        completed: run.completed,
     })
+}
+
+/// State of one identification run: the best point so far, the trace and the counters.
+struct Run<'o, 'r, 'a, P> {
+    objective: &'o Objective<'r, 'a>,
+    space: &'o Space,
+    cfg: &'o IdentifyConfig,
+    progress: P,
+    trace: heapless::Vec<TracePoint, TRACE_CAPACITY>,
+    evaluations: u32,
+    refine_iterations: u32,
+    best: Option<([f32; MAX_FREE], Cost)>,
+    completed: bool,
+}
+
+impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
+    fn best_fitness(&self) -> f32 {
+        self.best.map_or(f32::INFINITY, |(_, c)| c.fitness())
+    }
+
+    fn offer(&mut self, u: &[f32; MAX_FREE], cost: Cost) {
+        if self.best.is_none_or(|(_, c)| cost.sse < c.sse) {
+            self.best = Some((*u, cost));
+        }
+    }
+
+    /// Report one iteration; false when the caller asked to stop.
+    fn report(&mut self, stage: Stage, iteration: u32, iterations: u32, best: f32) -> bool {
+        push_trace(
+            &mut self.trace,
+            TracePoint {
+                evaluations: self.evaluations,
+                best,
+            },
+        );
+        let p = Progress {
+            stage,
+            iteration,
+            iterations,
+            evaluations: self.evaluations,
+            best,
+        };
+        let go_on = (self.progress)(&p).is_continue();
+        self.completed &= go_on;
+        go_on
+    }
+
+    /// Levenberg-Marquardt from `u0`.
+    fn refine(&mut self, u0: &[f32]) {
+        let Some(lm) = self.cfg.refine else { return };
+        let iterations = lm.max_iterations * (self.cfg.restarts + 2);
+        let base = self.evaluations;
+        let before = self.best_fitness();
+        let mut stop = false;
+        let result = levenberg_marquardt(self.objective, self.space, u0, &lm, |lp| {
+            self.refine_iterations += 1;
+            let p = Progress {
+                stage: Stage::Refine,
+                iteration: self.refine_iterations,
+                iterations,
+                evaluations: base + lp.evaluations,
+                best: lp.cost.fitness().min(before),
+            };
+            push_trace(
+                &mut self.trace,
+                TracePoint {
+                    evaluations: p.evaluations,
+                    best: p.best,
+                },
+            );
+            let flow = (self.progress)(&p);
+            stop |= flow.is_break();
+            flow
+        });
+        if stop {
+            self.completed = false;
+        }
+        if let Some(r) = result {
+            self.evaluations = base + r.evaluations;
+            self.offer(&r.u, r.cost);
+        }
+    }
+
+    /// FFO (seed Eq. 8-16) from random points (and `seed_point`), then refinement of the best
+    /// members until one reaches the noise floor or the restarts are spent.
+    fn search(&mut self, seed_point: Option<&[f32]>) -> Result<(), Error> {
+        let (objective, space) = (self.objective, self.space);
+        let fitness = |u: &[f32]| objective.fitness(space, u);
+        let cfg = self.cfg;
+        let mut ffo = Ffo::<MAX_POPULATION, MAX_FREE>::with_start(
+            cfg.ffo,
+            space.dim(),
+            cfg.seed,
+            seed_point,
+            fitness,
+        )?;
+        let base = self.evaluations;
+        self.evaluations = base + ffo.evaluations();
+        let first = ffo.best().1.min(self.best_fitness());
+        push_trace(
+            &mut self.trace,
+            TracePoint {
+                evaluations: self.evaluations,
+                best: first,
+            },
+        );
+        while !ffo.done() {
+            let p = ffo.step(fitness);
+            self.evaluations = base + p.evaluations;
+            let best = p.best_cost.min(self.best_fitness());
+            if !self.report(Stage::Search, p.iteration, cfg.ffo.iterations, best) {
+                break;
+            }
+        }
+        let (best_u, best_fit) = ffo.best();
+        if best_fit.is_finite() {
+            let mut u = [0.0f32; MAX_FREE];
+            u[..space.dim()].copy_from_slice(best_u);
+            if let Some(c) = objective.cost(&space.params(&u[..space.dim()])) {
+                self.evaluations += 1;
+                self.offer(&u, c);
+            }
+        }
+        if self.best.is_none() {
+            return Err(Error::NoFiniteCandidate);
+        }
+        let floor = NOISE_FLOOR_FACTOR * objective.sigma_omega();
+        for rank in 0..=cfg.restarts as usize {
+            if !self.completed || cfg.refine.is_none() {
+                break;
+            }
+            let (u0, c0) = ffo.ranked(rank);
+            if !c0.is_finite() {
+                break;
+            }
+            let mut u = [0.0f32; MAX_FREE];
+            u[..space.dim()].copy_from_slice(u0);
+            self.refine(&u[..space.dim()]);
+            if self.best_fitness() <= floor {
+                break;
+            }
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -238,52 +354,8 @@ mod tests {
     use super::*;
     use crate::params::ParamId;
     use crate::profile::{default_load_torque, Experiment, Profile};
-    use crate::synth::{synthesize, Buffers, Noise};
-    use std::vec::Vec;
-
-    pub struct Owned {
-        pub dt: f32,
-        pub v: Vec<f32>,
-        pub tl: Vec<f32>,
-        pub omega: Vec<f32>,
-        pub current: Vec<f32>,
-    }
-
-    impl Owned {
-        pub fn new(
-            p: &ModelParams,
-            exp: Experiment,
-            dt: f32,
-            n: usize,
-            noise: Noise,
-            seed: u64,
-        ) -> Owned {
-            let mut o = Owned {
-                dt,
-                v: vec![0.0; n],
-                tl: vec![0.0; n],
-                omega: vec![0.0; n],
-                current: vec![0.0; n],
-            };
-            let buffers = Buffers {
-                v: &mut o.v,
-                tl: &mut o.tl,
-                omega: &mut o.omega,
-                current: &mut o.current,
-            };
-            synthesize(p, &exp, dt, noise, seed, buffers).unwrap();
-            o
-        }
-        pub fn record(&self, with_current: bool, with_load: bool) -> Record<'_> {
-            Record {
-                dt: self.dt,
-                v: &self.v,
-                omega: &self.omega,
-                current: with_current.then_some(&self.current[..]),
-                load: with_load.then_some(&self.tl[..]),
-            }
-        }
-    }
+    use crate::synth::Noise;
+    use crate::testkit::Owned;
 
     fn assert_within(p: &ModelParams, truth: &ModelParams, rel: f32) {
         for id in ParamId::MOTOR {
@@ -389,59 +461,5 @@ mod tests {
             id.cost.rmse_omega
         );
         let _ = default_load_torque(&truth, 50.0);
-    }
-}
-#[cfg(test)]
-mod probe {
-    use super::tests::Owned;
-    use super::*;
-    use crate::profile::{Experiment, Profile};
-    use crate::synth::Noise;
-    #[test]
-    fn probe_eigs() {
-        for noise in [0.2f32, 0.01] {
-            let truth = ModelParams::SEED_MOTOR;
-            let exp = Experiment {
-                profile: Profile::Start,
-                voltage: 50.0,
-                duration: 20.0,
-                load_torque: 0.0,
-            };
-            let data = Owned::new(
-                &truth,
-                exp,
-                0.01,
-                2000,
-                Noise {
-                    omega: noise,
-                    current: 0.0,
-                },
-                5,
-            );
-            let rec = [data.record(false, false)];
-            let id = identify(
-                &rec,
-                &ProblemSpec::default(),
-                &IdentifyConfig::default_pipeline(2),
-                |_| ControlFlow::Continue(()),
-            )
-            .unwrap();
-            let floor = Objective::new(&rec)
-                .unwrap()
-                .cost(&truth)
-                .unwrap()
-                .rmse_omega;
-            std::eprintln!(
-                "noise {noise} rank {} rmse {} floor {floor} evals {} params {:?}",
-                id.identifiability.rank,
-                id.cost.rmse_omega,
-                id.evaluations,
-                id.params
-            );
-            for t in id.trace.iter() {
-                std::eprint!("({},{}) ", t.evaluations, t.best);
-            }
-            std::eprintln!();
-        }
     }
 }

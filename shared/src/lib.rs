@@ -16,6 +16,7 @@ pub mod error;
 pub mod ffo;
 pub mod identifiability;
 pub mod identify;
+pub mod initial;
 pub mod linalg;
 pub mod objective;
 pub mod params;
@@ -26,6 +27,8 @@ pub mod rng;
 pub mod sim;
 pub mod space;
 pub mod synth;
+#[cfg(test)]
+pub(crate) mod testkit;
 
 pub use error::Error;
 pub use params::{ModelParams, ParamId};

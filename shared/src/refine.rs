@@ -161,17 +161,8 @@ fn lm_step(
         return StepOutcome::Stalled { evaluations };
     }
     while *lambda <= 1e10 {
-        let mut a = ne.jtj;
-        for (i, row) in a.iter_mut().enumerate().take(dim) {
-            row[i] += *lambda * (ne.jtj[i][i] + 1e-9 * max_diag);
-        }
-        // Minimising |r|^2 with r = measured - sim: (J^T J + damping) du = -J^T r.
-        let mut rhs: Vector = [0.0; MAX_FREE];
-        for i in 0..dim {
-            rhs[i] = -ne.jtr[i];
-        }
         let mut trial = *u;
-        let moved = match cholesky_solve(&a, &rhs, dim) {
+        let moved = match projected_step(ne, u, *lambda, max_diag, dim) {
             Some(du) => {
                 for i in 0..dim {
                     trial[i] = (u[i] + du[i] as f32).clamp(0.0, 1.0);
@@ -204,4 +195,50 @@ fn lm_step(
         }
     }
     StepOutcome::Stalled { evaluations }
+}
+
+/// Damped Gauss-Newton step `(J^T J + lambda D) du = -J^T r` with bound constraints handled
+/// by an active set: a coordinate on a bound whose step points outwards is held and the step
+/// solved again for the others, so that the fit can slide along a bound (a speed-only fit
+/// whose flat valley meets the edge of the box) instead of stalling there.
+fn projected_step(
+    ne: &crate::objective::NormalEquations,
+    u: &[f32; MAX_FREE],
+    lambda: f64,
+    max_diag: f64,
+    dim: usize,
+) -> Option<Vector> {
+    let mut held = [false; MAX_FREE];
+    for _ in 0..=dim {
+        let mut a = ne.jtj;
+        let mut rhs: Vector = [0.0; MAX_FREE];
+        for i in 0..dim {
+            a[i][i] += lambda * (ne.jtj[i][i] + 1e-9 * max_diag);
+            // Minimising |r|^2 with r = measured - sim.
+            rhs[i] = -ne.jtr[i];
+        }
+        for i in 0..dim {
+            if held[i] {
+                for k in 0..dim {
+                    a[i][k] = 0.0;
+                    a[k][i] = 0.0;
+                }
+                a[i][i] = 1.0;
+                rhs[i] = 0.0;
+            }
+        }
+        let du = cholesky_solve(&a, &rhs, dim)?;
+        let mut changed = false;
+        for i in 0..dim {
+            let outwards = (u[i] <= 0.0 && du[i] < 0.0) || (u[i] >= 1.0 && du[i] > 0.0);
+            if outwards && !held[i] {
+                held[i] = true;
+                changed = true;
+            }
+        }
+        if !changed {
+            return Some(du);
+        }
+    }
+    None
 }

@@ -1,0 +1,311 @@
+//! Equation-error starts for the search, computed without a single simulation.
+//!
+//! With current: seed Eq. 1 and Eq. 4 integrated over time are linear in the parameters,
+//!
+//! `int v = Ra int i + La (i - i0) + Kv int w` and
+//! `Kv int i - int tl = J (w - w0) + B int w`,
+//!
+//! so least squares over all samples gives Ra, La, Kv and then J, B.
+//!
+//! Speed only: seed Eq. 6 as a differential equation, `w'' + c2 w' + c3 w = c1 v` with
+//! `c1 = Kv/(La J)`, `c2 = Ra/La + B/J`, `c3 = (Ra B + Kv^2)/(La J)`, integrated twice is
+//! linear in `c1, c2, c3` and two constants of integration per record. Only these three
+//! combinations are pinned (see [`crate::identifiability`]), so the start is the point of the
+//! equal-fit set `{c1, c2, c3} = const` that best respects the bounds and fixed values.
+//!
+//! Integrating (rather than differentiating) keeps the noise of the readings from being
+//! amplified. The estimates are biased by noise on the regressors and by unmodelled effects,
+//! so they only seed the search; the output-error fit decides.
+
+use crate::linalg::{cholesky_solve, Mat, Vector};
+use crate::params::{ModelParams, ParamId};
+use crate::record::Record;
+use crate::space::{ProblemSpec, MAX_FREE};
+
+/// Normal equations of a small least-squares problem (at most [`MAX_FREE`] unknowns),
+/// accumulated row by row.
+struct LeastSquares {
+    n: usize,
+    ata: Mat,
+    atb: Vector,
+}
+
+impl LeastSquares {
+    fn new(n: usize) -> Self {
+        LeastSquares {
+            n,
+            ata: [[0.0; MAX_FREE]; MAX_FREE],
+            atb: [0.0; MAX_FREE],
+        }
+    }
+    fn add(&mut self, row: &[f64], y: f64) {
+        for a in 0..self.n {
+            for b in 0..self.n {
+                self.ata[a][b] += row[a] * row[b];
+            }
+            self.atb[a] += row[a] * y;
+        }
+    }
+    fn solve(&self) -> Option<Vector> {
+        // Column scaling keeps the normal equations well conditioned whatever the units.
+        let n = self.n;
+        let mut scaled = self.ata;
+        let mut rhs = self.atb;
+        let mut scale = [1.0f64; MAX_FREE];
+        for a in 0..n {
+            scale[a] = libm::sqrt(self.ata[a][a]).max(f64::MIN_POSITIVE);
+        }
+        for a in 0..n {
+            for b in 0..n {
+                scaled[a][b] /= scale[a] * scale[b];
+            }
+            rhs[a] /= scale[a];
+        }
+        let x = cholesky_solve(&scaled, &rhs, n)?;
+        let mut out = [0.0; MAX_FREE];
+        for a in 0..n {
+            out[a] = x[a] / scale[a];
+        }
+        out[..n].iter().all(|v| v.is_finite()).then_some(out)
+    }
+}
+
+/// Motor parameters by equation error, or `None` without current in every record or when
+/// the regression is degenerate or gives a non-positive parameter.
+pub fn equation_error(records: &[Record]) -> Option<ModelParams> {
+    let mut electrical = LeastSquares::new(3);
+    for r in records {
+        let c = r.current?;
+        let dt = r.dt as f64;
+        let (mut iv, mut ii, mut iw) = (0.0f64, 0.0f64, 0.0f64);
+        for k in 1..r.len() {
+            iv += r.v[k - 1] as f64 * dt;
+            ii += 0.5 * (c[k - 1] + c[k]) as f64 * dt;
+            iw += 0.5 * (r.omega[k - 1] + r.omega[k]) as f64 * dt;
+            electrical.add(&[ii, (c[k] - c[0]) as f64, iw], iv);
+        }
+    }
+    let x = electrical.solve()?;
+    let (ra, la, kv) = (x[0], x[1], x[2]);
+    let mut mechanical = LeastSquares::new(2);
+    for r in records {
+        let c = r.current?;
+        let dt = r.dt as f64;
+        let (mut ii, mut iw, mut it) = (0.0f64, 0.0f64, 0.0f64);
+        for k in 1..r.len() {
+            ii += 0.5 * (c[k - 1] + c[k]) as f64 * dt;
+            iw += 0.5 * (r.omega[k - 1] + r.omega[k]) as f64 * dt;
+            it += r.load_at(k - 1) as f64 * dt;
+            mechanical.add(&[(r.omega[k] - r.omega[0]) as f64, iw], kv * ii - it);
+        }
+    }
+    let x = mechanical.solve()?;
+    let (j, b) = (x[0], x[1]);
+    let p = ModelParams::motor(ra as f32, la as f32, j as f32, b.max(0.0) as f32, kv as f32);
+    let positive = [ra, la, j, kv].iter().all(|x| *x > 0.0);
+    (positive && p.validate().is_ok()).then_some(p)
+}
+
+/// Records used by the speed-only regression (two unknowns each).
+const MAX_SPEED_RECORDS: usize = 4;
+
+/// The transfer-function coefficients `(c1, c2, c3)` of seed Eq. 6 by equation error.
+pub fn speed_coefficients(records: &[Record]) -> Option<(f64, f64, f64)> {
+    let used = &records[..records.len().min(MAX_SPEED_RECORDS)];
+    let with_load = used.iter().any(|r| r.load.is_some());
+    // Unknowns: c1, c2, c3, [1/J, Ra/(La J)], then (w0, w0' + c2 w0) per record.
+    let base = if with_load { 5 } else { 3 };
+    let n = base + 2 * used.len();
+    let mut ls = LeastSquares::new(n);
+    for (idx, r) in used.iter().enumerate() {
+        let dt = r.dt as f64;
+        // Running integrals: of w, of int w, of v, of int v, of tl, of int tl.
+        let (mut iw, mut iiw, mut iv, mut iiv, mut it, mut iit) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for k in 1..r.len() {
+            let w_mid = 0.5 * (r.omega[k - 1] + r.omega[k]) as f64;
+            iiw += (iw + 0.5 * w_mid * dt) * dt;
+            iw += w_mid * dt;
+            let v = r.v[k - 1] as f64;
+            iiv += (iv + 0.5 * v * dt) * dt;
+            iv += v * dt;
+            let tl = r.load_at(k - 1) as f64;
+            iit += (it + 0.5 * tl * dt) * dt;
+            it += tl * dt;
+            let mut row = [0.0f64; MAX_FREE];
+            row[0] = iiv;
+            row[1] = -iw;
+            row[2] = -iiw;
+            if with_load {
+                row[3] = -it;
+                row[4] = -iit;
+            }
+            row[base + 2 * idx] = 1.0;
+            row[base + 2 * idx + 1] = k as f64 * dt;
+            ls.add(&row[..n], r.omega[k] as f64);
+        }
+    }
+    let x = ls.solve()?;
+    let (c1, c2, c3) = (x[0], x[1], x[2]);
+    (c1 > 0.0 && c2 > 0.0 && c3 > 0.0).then_some((c1, c2, c3))
+}
+
+/// The point of the equal-fit set of `(c1, c2, c3)` that best respects the bounds and fixed
+/// values of `spec`: a grid over Kv and La (or their fixed values), both assignments of the
+/// roots of `z^2 - c2 z + (c3 - Kv c1)` to `Ra/La` and `B/J`, scored by how far (in log
+/// scale) the parameters fall outside their bounds or from their fixed values, ties broken
+/// by distance from the centre of the box.
+pub fn equal_fit_point(c: (f64, f64, f64), spec: &ProblemSpec) -> Option<ModelParams> {
+    const GRID: usize = 9;
+    let (c1, c2, c3) = c;
+    let range = |id: ParamId| -> (f64, f64) {
+        if spec.free[id.index()] {
+            let (lo, hi) = spec.bounds[id.index()];
+            (lo as f64, hi as f64)
+        } else {
+            let v = spec.base.get(id) as f64;
+            (v, v)
+        }
+    };
+    // Kv: the roots are real for Kv >= (c3 - c2^2/4)/c1, positive for Kv < c3/c1.
+    let (kv_lo, kv_hi) = range(ParamId::Kv);
+    let kv_min = kv_lo.max((c3 - 0.25 * c2 * c2) / c1).max(1e-12);
+    let kv_max = kv_hi.min(c3 / c1 * (1.0 - 1e-6));
+    if kv_min > kv_max {
+        return None;
+    }
+    let (la_lo, la_hi) = range(ParamId::La);
+    let geo = |lo: f64, hi: f64, k: usize| {
+        if GRID == 1 || lo == hi {
+            lo
+        } else {
+            lo * libm::pow(hi / lo, k as f64 / (GRID - 1) as f64)
+        }
+    };
+    let mut best: Option<(f64, f64, ModelParams)> = None;
+    for a in 0..GRID {
+        let kv = geo(kv_min, kv_max, a);
+        let prod = c3 - kv * c1;
+        let disc = (c2 * c2 - 4.0 * prod).max(0.0);
+        let roots = [0.5 * (c2 + libm::sqrt(disc)), 0.5 * (c2 - libm::sqrt(disc))];
+        for (x, y) in [(roots[0], roots[1]), (roots[1], roots[0])] {
+            if x <= 0.0 || y < 0.0 {
+                continue;
+            }
+            for l in 0..GRID {
+                let la = geo(la_lo, la_hi, l);
+                let ra = x * la;
+                let j = kv / (c1 * la);
+                let b = y * j;
+                let p = ModelParams::motor(ra as f32, la as f32, j as f32, b as f32, kv as f32);
+                let mut outside = 0.0;
+                let mut centre = 0.0;
+                for id in ParamId::MOTOR {
+                    let (lo, hi) = range(id);
+                    let v = p.get(id) as f64;
+                    if v <= 0.0 {
+                        continue;
+                    }
+                    if v < lo {
+                        outside += libm::log(lo / v);
+                    } else if v > hi {
+                        outside += libm::log(v / hi);
+                    }
+                    if lo > 0.0 && hi > lo {
+                        let mid = libm::sqrt(lo * hi);
+                        centre += libm::fabs(libm::log(v / mid));
+                    }
+                }
+                let better = match &best {
+                    None => true,
+                    Some((o, c, _)) => outside < *o - 1e-9 || (outside <= *o + 1e-9 && centre < *c),
+                };
+                if better && p.validate().is_ok() {
+                    best = Some((outside, centre, p));
+                }
+            }
+        }
+    }
+    best.map(|(_, _, p)| p)
+}
+
+/// The start for `records`: equation error with current when every record has it, else the
+/// speed-only equal-fit point.
+pub fn start(records: &[Record], spec: &ProblemSpec) -> Option<ModelParams> {
+    equation_error(records).or_else(|| equal_fit_point(speed_coefficients(records)?, spec))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::ParamId;
+    use crate::profile::{Experiment, Profile};
+    use crate::synth::Noise;
+    use crate::testkit::Owned;
+
+    #[test]
+    fn recovers_a_noise_free_motor_closely() {
+        let truth = ModelParams::SEED_MOTOR;
+        let exp = Experiment {
+            profile: Profile::Steps,
+            voltage: 50.0,
+            duration: 30.0,
+            load_torque: 0.0,
+        };
+        let data = Owned::new(&truth, exp, 0.001, 30_000, Noise::default(), 1);
+        let est = equation_error(&[data.record(true, false)]).unwrap();
+        for id in ParamId::MOTOR {
+            let rel = (est.get(id) / truth.get(id) - 1.0).abs();
+            assert!(
+                rel < 0.02,
+                "{}: {} vs {}",
+                id.name(),
+                est.get(id),
+                truth.get(id)
+            );
+        }
+    }
+
+    #[test]
+    fn speed_only_start_lies_on_the_equal_fit_set() {
+        let truth = ModelParams::SEED_MOTOR;
+        let exp = Experiment {
+            profile: Profile::Steps,
+            voltage: 50.0,
+            duration: 30.0,
+            load_torque: 0.0,
+        };
+        let data = Owned::new(&truth, exp, 0.001, 30_000, Noise::default(), 1);
+        let (c1, c2, c3) = speed_coefficients(&[data.record(false, false)]).unwrap();
+        // Seed Eq. 6 coefficients of the truth.
+        let (ra, la, j, b, kv) = (3.412f64, 0.0573f64, 0.0424f64, 0.00267f64, 0.1604f64);
+        for (got, want) in [
+            (c1, kv / (la * j)),
+            (c2, ra / la + b / j),
+            (c3, (ra * b + kv * kv) / (la * j)),
+        ] {
+            assert!((got / want - 1.0).abs() < 0.02, "{got} vs {want}");
+        }
+        let p = equal_fit_point((c1, c2, c3), &ProblemSpec::default()).unwrap();
+        let (a1, _) = crate::identifiability::Combination::KvOverLaJ.evaluate(&p);
+        assert!((a1 as f64 / c1 - 1.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn needs_current() {
+        let exp = Experiment {
+            profile: Profile::Start,
+            voltage: 50.0,
+            duration: 1.0,
+            load_torque: 0.0,
+        };
+        let data = Owned::new(
+            &ModelParams::SEED_MOTOR,
+            exp,
+            0.001,
+            1000,
+            Noise::default(),
+            1,
+        );
+        assert!(equation_error(&[data.record(false, false)]).is_none());
+    }
+}

@@ -1,0 +1,51 @@
+//! Test support: synthetic records owned in vectors.
+
+use crate::params::ModelParams;
+use crate::profile::Experiment;
+use crate::record::Record;
+use crate::synth::{synthesize, Buffers, Noise};
+use std::vec::Vec;
+
+pub struct Owned {
+    pub dt: f32,
+    pub v: Vec<f32>,
+    pub tl: Vec<f32>,
+    pub omega: Vec<f32>,
+    pub current: Vec<f32>,
+}
+
+impl Owned {
+    pub fn new(
+        p: &ModelParams,
+        exp: Experiment,
+        dt: f32,
+        n: usize,
+        noise: Noise,
+        seed: u64,
+    ) -> Owned {
+        let mut o = Owned {
+            dt,
+            v: vec![0.0; n],
+            tl: vec![0.0; n],
+            omega: vec![0.0; n],
+            current: vec![0.0; n],
+        };
+        let buffers = Buffers {
+            v: &mut o.v,
+            tl: &mut o.tl,
+            omega: &mut o.omega,
+            current: &mut o.current,
+        };
+        synthesize(p, &exp, dt, noise, seed, buffers).unwrap();
+        o
+    }
+    pub fn record(&self, with_current: bool, with_load: bool) -> Record<'_> {
+        Record {
+            dt: self.dt,
+            v: &self.v,
+            omega: &self.omega,
+            current: with_current.then_some(&self.current[..]),
+            load: with_load.then_some(&self.tl[..]),
+        }
+    }
+}
