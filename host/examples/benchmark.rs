@@ -133,12 +133,6 @@ fn run(case: &Case, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
         .iter()
         .filter(|(c, sd)| (c.value - case.truth.get(c.id)).abs() <= 3.0 * sd)
         .count();
-    if !with_current && !pinned.is_empty() && std::env::var_os("BENCH_STD").is_some() {
-        eprintln!(
-            "speed-only pinned: truth {:?}\n  {:?}",
-            case.truth, id.identifiability
-        );
-    }
     Outcome {
         pinned: pinned.len(),
         pinned_within_3_std,
@@ -222,15 +216,15 @@ fn main() {
                 .filter(|o| o.evals_to_floor.is_some())
                 .count();
             println!(
-                "| {name} | {} | {:.1} % ({}/{}) | {} ({reached} reached) | {total:.0} | {} | {} | {} | {:.1} ms |",
+                "| {name} | {} | {:.1} % ({}/{}) | {} ({reached} reached) | {total:.0} | {} | {:.1} % | {:.1} % of {pinned} | {:.1} ms |",
                 if with_current { "speed + current" } else { "speed only" },
                 100.0 * ok / n,
                 ok as usize,
                 n as usize,
                 if to_floor.is_nan() { "-".to_string() } else { format!("{to_floor:.0}") },
                 if with_current { format!("{:.1} %", 100.0 * accurate / n) } else { "n/a (not identifiable)".into() },
-                format!("{:.1} %", 100.0 * all_pinned / n),
-                format!("{:.1} % of {pinned}", 100.0 * covered as f64 / pinned.max(1) as f64),
+                100.0 * all_pinned / n,
+                100.0 * covered as f64 / pinned.max(1) as f64,
                 secs * 1e3,
             );
             for (i, o) in outcomes.iter().enumerate() {
