@@ -326,3 +326,115 @@ pub fn simulate(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::profile::{Experiment, Profile};
+    use proptest::prelude::*;
+    use std::vec;
+    use std::vec::Vec;
+
+    fn trace(p: &ModelParams, dt: f32, n: usize) -> Vec<f32> {
+        let v = vec![50.0f32; n];
+        let (mut w, mut i) = (vec![0.0; n], vec![0.0; n]);
+        simulate(p, dt, InitialState::REST, &v, None, &mut w, &mut i).unwrap();
+        w
+    }
+
+    fn max_rel_diff(a: &[f32], b: &[f32]) -> f32 {
+        let peak = a.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f32::max)
+            / peak
+    }
+
+    #[test]
+    fn design_md_equal_fit_sets_give_the_same_speed_trace() {
+        // Scaling (Ra, La) by 2.5 and (J, B) by 1/2.5 (DESIGN.md) leaves seed Eq. 6 unchanged.
+        let paper = ModelParams::SEED_MOTOR;
+        let scaled = ModelParams::motor(8.53, 0.14325, 0.01696, 0.001068, 0.1604);
+        let a = trace(&paper, 1e-3, 20_000);
+        let b = trace(&scaled, 1e-3, 20_000);
+        assert!(max_rel_diff(&a, &b) < 1e-4, "{}", max_rel_diff(&a, &b));
+        // The second direction trades La J against Kv: near-equal fit.
+        let traded = ModelParams::motor(3.407, 0.0573, 0.0212, 0.00322, 0.0802);
+        let c = trace(&traded, 1e-3, 20_000);
+        assert!(max_rel_diff(&a, &c) < 2e-3, "{}", max_rel_diff(&a, &c));
+        // While a genuinely different motor does not.
+        let other = ModelParams::motor(3.412, 0.0573, 0.0424, 0.00267, 0.17);
+        assert!(max_rel_diff(&a, &trace(&other, 1e-3, 20_000)) > 1e-2);
+    }
+
+    #[test]
+    fn coulomb_friction_holds_the_shaft_below_breakaway() {
+        let tc = 0.05f32;
+        let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+        // Stall torque at 1 V is Kv V / Ra = 0.047 N m < tc: the shaft never turns.
+        let mut sim = Simulator::new(&p, 1e-3, InitialState::REST).unwrap();
+        for _ in 0..5000 {
+            sim.advance(1.0, 0.0);
+            assert_eq!(sim.omega(), 0.0);
+        }
+        // At 50 V it turns, and settles below the friction-free speed.
+        let free = trace(&ModelParams::SEED_MOTOR, 1e-3, 30_000);
+        let with = trace(&p, 1e-3, 30_000);
+        assert!(with[29_999] > 0.0 && with[29_999] < free[29_999]);
+    }
+
+    #[test]
+    fn sensor_delay_shifts_the_reading() {
+        let p = ModelParams::SEED_MOTOR.with(ParamId::Td, 0.01);
+        let a = trace(&ModelParams::SEED_MOTOR, 1e-3, 2000);
+        let b = trace(&p, 1e-3, 2000);
+        for k in 10..2000 {
+            assert!(
+                (b[k] - a[k - 10]).abs() <= 1e-3 * a[k - 10].abs().max(1.0),
+                "{k}"
+            );
+        }
+    }
+
+    fn log_uniform(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
+        (0.0f32..=1.0).prop_map(move |u| lo * (hi / lo).powf(u))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+        /// Any motor in the Table 1 box, with any effects, at any rate from 100 Hz to 50 kHz,
+        /// simulates to finite numbers (DESIGN.md: Euler/RK4 diverge for part of the box).
+        #[test]
+        fn every_motor_in_the_box_simulates_finite(
+            ra in log_uniform(0.5, 10.0),
+            la in log_uniform(0.01, 2.0),
+            j in log_uniform(0.001, 1.0),
+            b in log_uniform(0.0005, 1.0),
+            kv in log_uniform(0.01, 2.0),
+            rate in log_uniform(100.0, 50_000.0),
+            tc in prop_oneof![Just(0.0f32), 0.0f32..1.0],
+            kq in prop_oneof![Just(0.0f32), 0.0f32..1e-3],
+            kar in prop_oneof![Just(0.0f32), 0.0f32..0.1],
+            vb in prop_oneof![Just(0.0f32), 0.0f32..5.0],
+            td in prop_oneof![Just(0.0f32), 0.0f32..0.02],
+            ripple in prop_oneof![Just(0.0f32), 0.0f32..0.2],
+            profile in prop_oneof![Just(Profile::Start), Just(Profile::Steps), Just(Profile::Load), Just(Profile::Reversal)],
+        ) {
+            let p = ModelParams::motor(ra, la, j, b, kv)
+                .with(ParamId::Tc, tc).with(ParamId::Kq, kq).with(ParamId::Kar, kar)
+                .with(ParamId::Vb, vb).with(ParamId::Td, td).with(ParamId::RippleAmp, ripple)
+                .with(ParamId::RippleCycles, 4.0);
+            let dt = 1.0 / rate;
+            let n = 600;
+            let exp = Experiment { profile, voltage: 220.0, duration: n as f32 * dt, load_torque: 0.5 };
+            let mut sim = Simulator::new(&p, dt, InitialState::REST).unwrap();
+            for k in 0..n {
+                let input = exp.at(k as f32 * dt);
+                let r = sim.reading();
+                prop_assert!(r.omega.is_finite() && r.current.is_finite(), "step {k}: {r:?}");
+                sim.advance(input.v, input.tl);
+            }
+        }
+    }
+}

@@ -1,1 +1,112 @@
-//! End-to-end tests live in tests/tests/.
+//! Helpers for the end-to-end tests in `tests/tests/`: they drive the `motor-id` binary
+//! exactly as a user (or another tool) would, through the CLI/CSV/JSON contract of DESIGN.md.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+/// Path of the `motor-id` binary, built once per test run in the same target directory and
+/// profile as the tests.
+pub fn motor_id() -> &'static Path {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        // target/<profile>/deps/<test-exe> -> target/<profile>
+        let exe = std::env::current_exe().expect("test executable path");
+        let profile_dir = exe
+            .parent()
+            .and_then(Path::parent)
+            .expect("target/<profile>");
+        let release = profile_dir.file_name().is_some_and(|n| n == "release");
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut build = Command::new(cargo);
+        build.args(["build", "--quiet", "-p", "motor-id", "--bin", "motor-id"]);
+        if release {
+            build.arg("--release");
+        }
+        let target_dir = profile_dir.parent().expect("target dir");
+        build.env("CARGO_TARGET_DIR", target_dir);
+        let status = build.status().expect("run cargo build for motor-id");
+        assert!(status.success(), "cargo build of motor-id failed");
+        let bin = profile_dir.join(format!("motor-id{}", std::env::consts::EXE_SUFFIX));
+        assert!(bin.exists(), "{} missing after build", bin.display());
+        bin
+    })
+}
+
+/// Run `motor-id` with `args`.
+pub fn run(args: &[&str]) -> Output {
+    Command::new(motor_id())
+        .args(args)
+        .output()
+        .expect("start motor-id")
+}
+
+/// Run `motor-id` and require success; returns stdout.
+pub fn run_ok(args: &[&str]) -> String {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "motor-id {args:?} failed ({:?}):\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).expect("UTF-8 stdout")
+}
+
+/// Run `motor-id` expecting failure; returns the stderr text after checking it is one clear
+/// line and not a panic.
+pub fn run_err(args: &[&str]) -> String {
+    let out = run(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(
+        !out.status.success(),
+        "motor-id {args:?} should have failed"
+    );
+    assert!(!stderr.contains("panicked"), "panic on {args:?}: {stderr}");
+    assert!(
+        !stderr.contains("RUST_BACKTRACE"),
+        "backtrace hint on {args:?}: {stderr}"
+    );
+    assert_eq!(
+        stderr.trim_end().lines().count(),
+        1,
+        "not one line on {args:?}: {stderr}"
+    );
+    stderr
+}
+
+/// Read a JSON file.
+pub fn json(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).expect("read JSON report");
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
+/// A parameter value from a report's `params`.
+pub fn param(report: &Value, name: &str) -> f64 {
+    report["params"][name]
+        .as_f64()
+        .unwrap_or_else(|| panic!("params.{name} missing in {report}"))
+}
+
+/// Relative error.
+pub fn rel(a: f64, b: f64) -> f64 {
+    (a / b - 1.0).abs()
+}
+
+/// The real lab-motor data directory (`../shared/realdata/fibo-lab-motor` beside the
+/// repository). Its absence is a failure, not a skip.
+pub fn realdata() -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/realdata/fibo-lab-motor");
+    assert!(
+        dir.join("step_1.csv").exists(),
+        "real data not found at {} (shared/ must sit beside the repository)",
+        dir.display()
+    );
+    dir
+}
+
+/// Path as &str.
+pub fn s(p: &Path) -> &str {
+    p.to_str().expect("UTF-8 path")
+}

@@ -1,0 +1,135 @@
+//! Bad input: one clear line on stderr, non-zero exit, never a panic.
+
+use motor_id_tests::{run_err, s};
+use std::path::PathBuf;
+
+fn file(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+    let p = dir.path().join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn rows(n: usize, f: impl Fn(usize) -> String) -> String {
+    let mut t = String::from("t,v,omega\n");
+    for k in 0..n {
+        t += &f(k);
+        t.push('\n');
+    }
+    t
+}
+
+#[test]
+fn broken_records_are_refused_with_one_line() {
+    let d = tempfile::tempdir().unwrap();
+    let good = |k: usize| format!("{},{},{}", k as f64 * 0.01, 10.0, k as f64);
+    let cases: Vec<(&str, String, &str)> = vec![
+        ("empty.csv", String::new(), "empty"),
+        ("header.csv", "t,v,omega\n".into(), "no data rows"),
+        (
+            "missing.csv",
+            "t,v,speed\n0,1,2\n".into(),
+            "missing column(s) omega",
+        ),
+        (
+            "nan.csv",
+            rows(20, |k| {
+                if k == 5 {
+                    "0.05,10,NaN".into()
+                } else {
+                    good(k)
+                }
+            }),
+            "not finite",
+        ),
+        (
+            "text.csv",
+            rows(20, |k| if k == 7 { "0.07,ten,7".into() } else { good(k) }),
+            "not a number",
+        ),
+        (
+            "nonuniform.csv",
+            rows(20, |k| format!("{},{},{}", (k * k) as f64 * 0.01, 10, k)),
+            "not uniform",
+        ),
+        (
+            "decreasing.csv",
+            rows(20, |k| format!("{},{},{}", 1.0 - k as f64 * 0.01, 10, k)),
+            "not increasing",
+        ),
+        ("short.csv", rows(3, good), "only 3 data rows"),
+        ("ragged.csv", "t,v,omega\n0,1,2\n0.01,1\n".into(), "fields"),
+    ];
+    for (name, text, expect) in cases {
+        let p = file(&d, name, &text);
+        let err = run_err(&["identify", s(&p), "-q"]);
+        assert!(
+            err.contains(expect),
+            "{name}: expected '{expect}' in: {err}"
+        );
+        assert!(
+            err.contains(name),
+            "{name}: message should name the file: {err}"
+        );
+    }
+    let err = run_err(&["identify", "/nonexistent/rec.csv"]);
+    assert!(err.contains("cannot open"), "{err}");
+}
+
+#[test]
+fn bad_options_are_refused_with_one_line() {
+    let d = tempfile::tempdir().unwrap();
+    let p = file(
+        &d,
+        "ok.csv",
+        &rows(50, |k| format!("{},{},{}", k as f64 * 0.01, 10, k)),
+    );
+    let ok = s(&p);
+    for (args, expect) in [
+        (vec!["identify", ok, "--bounds", "ra=5:1"], "lo 5 >= hi 1"),
+        (vec!["identify", ok, "--bounds", "ra=1:1"], ">= hi"),
+        (
+            vec!["identify", ok, "--bounds", "xyz=1:2"],
+            "unknown parameter 'xyz'",
+        ),
+        (vec!["identify", ok, "--bounds", "ra=1"], "LO:HI"),
+        (vec!["identify", ok, "--bounds", "ra=-1:2"], "bound of ra"),
+        (
+            vec!["identify", ok, "--fix", "foo=1"],
+            "unknown parameter 'foo'",
+        ),
+        (vec!["identify", ok, "--fix", "ra=abc"], "not a number"),
+        (
+            vec!["identify", ok, "--fix", "ra=1,la=1,j=1,b=1,kv=1"],
+            "nothing to identify",
+        ),
+        (
+            vec!["simulate", "--profile", "warp", "--out", "x.csv"],
+            "unknown profile",
+        ),
+        (
+            vec!["simulate", "--motor", "ra=1,la=1", "--out", "x.csv"],
+            "missing j",
+        ),
+        (
+            vec!["simulate", "--effect", "bogus:x=1", "--out", "x.csv"],
+            "unknown effect",
+        ),
+        (
+            vec![
+                "simulate",
+                "--effect",
+                "coulomb_friction:tc=-1",
+                "--out",
+                "x.csv",
+            ],
+            "outside",
+        ),
+        (vec!["simulate", "--rate", "0", "--out", "x.csv"], "--rate"),
+    ] {
+        let err = run_err(&args);
+        assert!(
+            err.contains(expect),
+            "{args:?}: expected '{expect}' in: {err}"
+        );
+    }
+}
