@@ -9,6 +9,7 @@
 //!
 //! `cargo run --release -p motor-id --example benchmark -- [MOTORS] [--skip-paper]`
 
+use motor_id_shared::ffo::{FfoConfig, Soil};
 use motor_id_shared::identify::{identify, IdentifyConfig};
 use motor_id_shared::objective::Objective;
 use motor_id_shared::params::{ModelParams, ParamId};
@@ -176,7 +177,18 @@ fn main() {
         ),
     ];
     if !skip_paper {
-        pipelines.push(("paper-faithful FFO", IdentifyConfig::paper_faithful(1)));
+        pipelines.push((
+            "paper-faithful FFO (soil away from best)",
+            IdentifyConfig::paper_faithful(1),
+        ));
+        let towards = IdentifyConfig {
+            ffo: FfoConfig {
+                soil: Soil::TowardsBest,
+                ..FfoConfig::SEED
+            },
+            ..IdentifyConfig::paper_faithful(1)
+        };
+        pipelines.push(("seed settings, soil towards best", towards));
     }
     for (name, cfg) in pipelines {
         for with_current in [true, false] {

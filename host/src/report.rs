@@ -136,12 +136,33 @@ pub fn identify_json(
             "sigma_current": id.sigma_current.map_or(Value::Null, num),
         },
         "fitness": num(id.cost.fitness()),
+        "fit_quality": {
+            "rmse_over_noise": num(id.cost.rmse_omega / id.sigma_omega),
+            "model_adequate": id.cost.rmse_omega / id.sigma_omega <= MISFIT_RATIO,
+        },
         "completed": id.completed,
         "convergence": trace,
         "records": files,
         "seed": seed,
         "mode": mode,
     })
+}
+
+/// RMSE above this multiple of the measured noise means the model misfits the data.
+const MISFIT_RATIO: f32 = 1.5;
+
+/// Six significant digits, scientific notation for very small or large magnitudes.
+fn sig(x: f32) -> String {
+    let a = x.abs();
+    if x == 0.0 {
+        return "0".into();
+    }
+    if (1e-3..1e6).contains(&a) {
+        let decimals = (5 - a.log10().floor().max(-3.0) as i32).clamp(0, 8) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.5e}")
+    }
 }
 
 fn unit(p: ParamId) -> &'static str {
@@ -194,9 +215,9 @@ pub fn summary(
             None => continue,
         };
         s += &format!(
-            "  {:<13} = {:<12.6} {:<14} {}\n",
+            "  {:<13} = {:<12} {:<14} {}\n",
             p.name(),
-            v,
+            sig(v),
             unit(p),
             status
         );
@@ -209,6 +230,14 @@ pub fn summary(
         s += &format!(", rmse_current = {rc:.6} A");
     }
     s += "\n";
+    let ratio = id.cost.rmse_omega / id.sigma_omega;
+    if ratio > MISFIT_RATIO {
+        s += &format!(
+            "warning: the fit is {ratio:.1} x the measured noise: the model misses something in \
+             this data (an unmodelled effect?); the uncertainties below assume white residuals \
+             and are optimistic\n"
+        );
+    }
     s += &format!(
         "identifiability: the data pins {} of {} directions\n",
         ident.rank,
@@ -217,9 +246,9 @@ pub fn summary(
     for c in &ident.combinations {
         if c.pinned {
             s += &format!(
-                "  pinned     {:<20} = {:.6} +- {:.3} %\n",
+                "  pinned     {:<20} = {:<12} +- {:.3} %\n",
                 c.combination.name(),
-                c.value,
+                sig(c.value),
                 100.0 * c.rel_std.unwrap_or(f32::NAN)
             );
         }
@@ -240,4 +269,18 @@ pub fn summary(
               otherwise (--fix ra=...)\n";
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sig;
+
+    #[test]
+    fn significant_digits() {
+        assert_eq!(sig(3.412), "3.41200");
+        assert_eq!(sig(0.0573), "0.0573000");
+        assert_eq!(sig(1.3e-5), "1.30000e-5");
+        assert_eq!(sig(0.0), "0");
+        assert_eq!(sig(1234.5), "1234.50");
+    }
 }

@@ -14,8 +14,10 @@
 //! directions above the floor plus, along each numerically flat direction, the spread of a
 //! uniform distribution over the part of that line inside the bounds (the data cannot say
 //! where on it the truth lies; the bounds can). It is pinned when that is at most
-//! [`PINNED_STD`] and its gradient has no more than a 1 % component along flat directions. So `kv` is pinned by a speed-only step when back-EMF dominates viscous
-//! friction (`Kv^2 >> Ra B`: then `Kv` is almost `c3/c1` anywhere in the box), and not otherwise.
+//! [`PINNED_STD`] and its gradient has no more than a 1 % component along flat directions.
+//! So `kv` is called pinned by a speed-only step when back-EMF dominates viscous friction
+//! (`Kv^2 >> Ra B`: then `Kv` is almost `c3/c1` anywhere in the box); its spread is then
+//! optimistic, since the equal-fit set is curved.
 
 use crate::error::Error;
 use crate::linalg::symmetric_eigen;
@@ -27,7 +29,8 @@ use crate::space::{Scale, Space, MAX_FREE};
 pub const PINNED_STD: f64 = 0.1;
 /// Largest share of a gradient's squared norm along numerically flat directions for a
 /// quantity that may still be called pinned (a component of 1 %: the numerical accuracy of
-/// the eigenvectors there).
+/// the eigenvectors there; the seed Eq. 6 coefficients, exactly orthogonal to the flat
+/// directions of a speed-only record, come out with components of up to about 0.3 %).
 const FLAT_SHARE: f64 = 1e-4;
 /// A pinned direction's eigenvalue must exceed the numerical floor by this factor.
 const NUMERICAL_MARGIN: f64 = 10.0;

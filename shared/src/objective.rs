@@ -118,7 +118,13 @@ impl<'r, 'a> Objective<'r, 'a> {
     /// and, unless the record starts at rest, the same with the speed raised by [`SHIFT`] to
     /// fit the initial speed (a known start at rest is information that is kept).
     fn initial_pair(&self, r: &Record, p: &ModelParams) -> (InitialState, Option<InitialState>) {
-        let init = r.initial_state(p.get(ParamId::Kv), p.get(ParamId::B), self.sigma_omega);
+        let sigma_current = self.sigma_current.unwrap_or(0.0);
+        let init = r.initial_state(
+            p.get(ParamId::Kv),
+            p.get(ParamId::B),
+            self.sigma_omega,
+            sigma_current,
+        );
         let shifted = (init.omega != 0.0).then_some(InitialState {
             omega: init.omega + SHIFT,
             ..init
@@ -440,7 +446,7 @@ impl Totals {
 
 /// Pooled noise of several signals, floored at 1e-4 of their RMS (noise-free simulations
 /// would otherwise give a zero weight or a division by zero).
-pub fn pooled_sigma<'s>(signals: impl Iterator<Item = &'s [f32]> + Clone) -> f32 {
+pub fn pooled_sigma<'s>(signals: impl Iterator<Item = &'s [f32]>) -> f32 {
     let mut var = 0.0f64;
     let mut ms = 0.0f64;
     let mut count = 0usize;

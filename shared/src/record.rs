@@ -65,20 +65,28 @@ impl<'a> Record<'a> {
         self.load.map_or(0.0, |l| l[k])
     }
 
-    /// Initial state of the simulation for this record and motor: the first speed reading, or
-    /// exactly rest when it is within three standard deviations `sigma_omega` of zero (a record
-    /// that starts indistinguishable from rest starts at rest; averaging several readings
-    /// would misplace the start of a step response); the first current reading, or else the
+    /// Initial state of the simulation for this record and motor. Speed: the first reading,
+    /// or exactly rest when it is within three standard deviations `sigma_omega` of zero (a
+    /// record that starts indistinguishable from rest starts at rest). Current: the
     /// mechanical equilibrium `Kv i = B w + tl` (seed Eq. 4 with dw/dt = 0), exact at rest and
-    /// in steady state.
-    pub fn initial_state(&self, kv: f32, b: f32, sigma_omega: f32) -> InitialState {
+    /// in steady state, unless a measured first current differs from it by more than three
+    /// `sigma_current`. (A noisy first reading taken as the state would persist for a time
+    /// constant: La/Ra reaches seconds in the seed's Table 1 box.)
+    pub fn initial_state(
+        &self,
+        kv: f32,
+        b: f32,
+        sigma_omega: f32,
+        sigma_current: f32,
+    ) -> InitialState {
         let mut omega = self.omega[0];
         if omega.abs() <= 3.0 * sigma_omega {
             omega = 0.0;
         }
+        let equilibrium = (b * omega + self.load_at(0)) / kv;
         let current = match self.current {
-            Some(c) => c[0],
-            None => (b * omega + self.load_at(0)) / kv,
+            Some(c) if (c[0] - equilibrium).abs() > 3.0 * sigma_current => c[0],
+            _ => equilibrium,
         };
         InitialState { current, omega }
     }
@@ -122,11 +130,10 @@ pub fn noise_sigma(x: &[f32]) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand_core::{RngCore, SeedableRng};
 
     #[test]
     fn noise_sigma_recovers_white_noise_on_a_smooth_signal() {
-        let mut rng = rand_xoshiro::Xoshiro128PlusPlus::seed_from_u64(7);
+        let mut rng = crate::rng::seeded(7);
         let sigma = 0.5f32;
         let x: std::vec::Vec<f32> = (0..20_000)
             .map(|k| {
@@ -136,7 +143,6 @@ mod tests {
             .collect();
         let est = noise_sigma(&x);
         assert!((est / sigma - 1.0).abs() < 0.05, "estimated {est}");
-        let _ = rng.next_u32();
     }
 
     #[test]
