@@ -353,7 +353,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
 mod tests {
     use super::*;
     use crate::params::ParamId;
-    use crate::profile::{default_load_torque, Experiment, Profile};
+    use crate::profile::Profile;
     use crate::synth::Noise;
     use crate::testkit::Owned;
 
@@ -371,15 +371,8 @@ mod tests {
     #[test]
     fn seed_motor_with_current_recovered_within_one_percent() {
         let truth = ModelParams::SEED_MOTOR;
-        let exp = Experiment {
-            profile: Profile::Steps,
-            voltage: 50.0,
-            duration: 30.0,
-            load_torque: 0.0,
-        };
-        let data = Owned::new(
-            &truth,
-            exp,
+        let data = Owned::seed_motor(
+            Profile::Steps,
             0.015,
             2000,
             Noise {
@@ -419,15 +412,8 @@ mod tests {
     #[test]
     fn speed_only_step_pins_three_combinations() {
         let truth = ModelParams::SEED_MOTOR;
-        let exp = Experiment {
-            profile: Profile::Start,
-            voltage: 50.0,
-            duration: 20.0,
-            load_torque: 0.0,
-        };
-        let data = Owned::new(
-            &truth,
-            exp,
+        let data = Owned::seed_motor(
+            Profile::Start,
             0.01,
             2000,
             Noise {
@@ -460,6 +446,5 @@ mod tests {
             "{} vs floor {floor}",
             id.cost.rmse_omega
         );
-        let _ = default_load_torque(&truth, 50.0);
     }
 }

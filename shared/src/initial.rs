@@ -245,13 +245,7 @@ mod tests {
     #[test]
     fn recovers_a_noise_free_motor_closely() {
         let truth = ModelParams::SEED_MOTOR;
-        let exp = Experiment {
-            profile: Profile::Steps,
-            voltage: 50.0,
-            duration: 30.0,
-            load_torque: 0.0,
-        };
-        let data = Owned::new(&truth, exp, 0.001, 30_000, Noise::default(), 1);
+        let data = Owned::seed_motor(Profile::Steps, 0.001, 30_000, Noise::default(), 1);
         let est = equation_error(&[data.record(true, false)]).unwrap();
         for id in ParamId::MOTOR {
             let rel = (est.get(id) / truth.get(id) - 1.0).abs();
@@ -267,14 +261,7 @@ mod tests {
 
     #[test]
     fn speed_only_start_lies_on_the_equal_fit_set() {
-        let truth = ModelParams::SEED_MOTOR;
-        let exp = Experiment {
-            profile: Profile::Steps,
-            voltage: 50.0,
-            duration: 30.0,
-            load_torque: 0.0,
-        };
-        let data = Owned::new(&truth, exp, 0.001, 30_000, Noise::default(), 1);
+        let data = Owned::seed_motor(Profile::Steps, 0.001, 30_000, Noise::default(), 1);
         let (c1, c2, c3) = speed_coefficients(&[data.record(false, false)]).unwrap();
         // Seed Eq. 6 coefficients of the truth.
         let (ra, la, j, b, kv) = (3.412f64, 0.0573f64, 0.0424f64, 0.00267f64, 0.1604f64);

@@ -1,7 +1,7 @@
 //! Test support: synthetic records owned in vectors.
 
 use crate::params::ModelParams;
-use crate::profile::Experiment;
+use crate::profile::{Experiment, Profile};
 use crate::record::Record;
 use crate::synth::{synthesize, Buffers, Noise};
 use std::vec::Vec;
@@ -15,6 +15,17 @@ pub struct Owned {
 }
 
 impl Owned {
+    /// The seed's motor run through `profile` at 50 V for `n` samples of `dt`.
+    pub fn seed_motor(profile: Profile, dt: f32, n: usize, noise: Noise, seed: u64) -> Owned {
+        let exp = Experiment {
+            profile,
+            voltage: 50.0,
+            duration: dt * n as f32,
+            load_torque: 0.0,
+        };
+        Owned::new(&ModelParams::SEED_MOTOR, exp, dt, n, noise, seed)
+    }
+
     pub fn new(
         p: &ModelParams,
         exp: Experiment,

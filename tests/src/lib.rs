@@ -76,6 +76,28 @@ pub fn run_err(args: &[&str]) -> String {
     stderr
 }
 
+/// The seed's experiment: a start from rest read on the tacho only (100 Hz, 20 s,
+/// 0.2 rad/s noise), as `simulate` arguments.
+pub const SEED_START: &[&str] = &[
+    "--profile",
+    "start",
+    "--rate",
+    "100",
+    "--duration",
+    "20",
+    "--speed-only",
+    "--noise-omega",
+    "0.2",
+];
+
+/// `motor-id simulate ARGS --out OUT`.
+pub fn simulate(out: &Path, args: &[&str]) {
+    let mut all = vec!["simulate"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--out", s(out)]);
+    run_ok(&all);
+}
+
 /// Read a JSON file.
 pub fn json(path: &Path) -> Value {
     let text = std::fs::read_to_string(path).expect("read JSON report");

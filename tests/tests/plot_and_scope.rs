@@ -1,6 +1,6 @@
 //! The fit plot and the oscilloscope import of the seed's workflow.
 
-use motor_id_tests::{json, param, rel, run_ok, s};
+use motor_id_tests::{json, param, rel, run_ok, s, simulate, SEED_START};
 
 #[test]
 fn identify_writes_a_png_plot() {
@@ -36,22 +36,7 @@ fn scope_trace_of_tacho_volts_is_imported_and_identified() {
     // lines, a units header, time from -1 s, tacho volts at 35 rad/s/V, inverted.
     let d = tempfile::tempdir().unwrap();
     let csv = d.path().join("rec.csv");
-    run_ok(&[
-        "simulate",
-        "--profile",
-        "start",
-        "--rate",
-        "100",
-        "--duration",
-        "20",
-        "--speed-only",
-        "--noise-omega",
-        "0.2",
-        "--voltage",
-        "48",
-        "--out",
-        s(&csv),
-    ]);
+    simulate(&csv, &[SEED_START, &["--voltage", "48"]].concat());
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut scope = String::from("HMO2024 trace\nin s,CH1[V]\n");
     for k in 0..100 {

@@ -1,7 +1,7 @@
 //! simulate -> identify through the CLI contract: accuracy, identifiability, determinism,
 //! the paper-faithful mode.
 
-use motor_id_tests::{json, param, rel, run_ok, s};
+use motor_id_tests::{json, param, rel, run_ok, s, simulate, SEED_START};
 
 const MOTOR: [&str; 5] = ["ra", "la", "j", "b", "kv"];
 
@@ -94,20 +94,7 @@ fn speed_only_step_says_only_three_combinations_are_pinned() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("start.csv");
     let report = dir.path().join("r.json");
-    run_ok(&[
-        "simulate",
-        "--profile",
-        "start",
-        "--rate",
-        "100",
-        "--duration",
-        "20",
-        "--speed-only",
-        "--noise-omega",
-        "0.2",
-        "--out",
-        s(&csv),
-    ]);
+    simulate(&csv, SEED_START);
     let text = run_ok(&["identify", s(&csv), "--json", s(&report), "-q"]);
     assert!(text.contains("NOT pinned"), "{text}");
     let id = &json(&report)["identifiability"];
@@ -183,20 +170,7 @@ fn paper_faithful_mode_reproduces_the_seed_workflow() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("start.csv");
     let report = dir.path().join("r.json");
-    run_ok(&[
-        "simulate",
-        "--profile",
-        "start",
-        "--rate",
-        "100",
-        "--duration",
-        "20",
-        "--speed-only",
-        "--noise-omega",
-        "0.2",
-        "--out",
-        s(&csv),
-    ]);
+    simulate(&csv, SEED_START);
     run_ok(&["identify", s(&csv), "--paper", "--json", s(&report), "-q"]);
     let r = json(&report);
     assert_eq!(r["evaluations"].as_u64().unwrap(), 40_100 + 1);
