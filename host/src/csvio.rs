@@ -105,7 +105,7 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
     if header.is_empty() {
         bail!("empty file");
     }
-    let col = |name: &str| header.iter().position(|h| h == name);
+    let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
     let (t_col, v_col, w_col) = match (col("t"), col("v"), col("omega")) {
         (Some(t), Some(v), Some(w)) => (t, v, w),
         _ => {
@@ -278,4 +278,51 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
         current: None,
         load: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_optional_columns_ignores_others_and_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        let mut text = String::from("note, T ,V,Omega,i,tl\n");
+        for k in 0..10 {
+            text += &format!(
+                "x,{},{},{},{},{}\n",
+                0.5 + k as f64 * 0.002,
+                12,
+                k,
+                0.1 * k as f64,
+                0.01
+            );
+        }
+        std::fs::write(&path, text).unwrap();
+        let rec = OwnedRecord::read(&path).unwrap();
+        assert_eq!(rec.len(), 10);
+        assert!((rec.dt - 0.002).abs() < 1e-9);
+        assert_eq!(rec.t0, 0.5);
+        assert_eq!(rec.omega[3], 3.0);
+        assert_eq!(rec.current.as_ref().unwrap()[2], 0.2);
+        assert_eq!(rec.load.as_ref().unwrap()[9], 0.01);
+        let again = dir.path().join("again.csv");
+        rec.write(&again).unwrap();
+        let back = OwnedRecord::read(&again).unwrap();
+        assert_eq!(back.omega, rec.omega);
+        assert_eq!(back.current, rec.current);
+        assert_eq!(back.v, rec.v);
+    }
+
+    #[test]
+    fn jittered_time_within_one_percent_is_uniform() {
+        let t: Vec<f64> = (0..100)
+            .map(|k| k as f64 * 0.001 + if k % 2 == 1 { 4e-6 } else { 0.0 })
+            .collect();
+        assert!(uniform_step(&t).is_ok());
+        let mut bad = t.clone();
+        bad[50] += 0.0005;
+        assert!(uniform_step(&bad).is_err());
+    }
 }
