@@ -1,6 +1,6 @@
 //! Command-line interface (DESIGN.md contract).
 
-use crate::{identify_cmd, simulate_cmd};
+use crate::{diagnose, identify_cmd, simulate_cmd};
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
@@ -20,6 +20,9 @@ enum Command {
     Identify(identify_cmd::IdentifyArgs),
     /// Convert an oscilloscope CSV of tacho volts into a record CSV (the seed's workflow).
     ImportScope(identify_cmd::ScopeArgs),
+    /// Locate the sim-to-real gap: where the model misfits, which unmodelled effect causes it,
+    /// how far the misfit shrinks with it, judged on held-out records.
+    Diagnose(diagnose::DiagnoseArgs),
     /// Run the whole job on a built-in default: the seed's motor, simulated, identified from
     /// speed only (seed workflow) and from speed and current.
     Demo(identify_cmd::DemoArgs),
@@ -38,10 +41,6 @@ pub struct FitOptions {
     /// Random seed (same seed and data, same result).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Paper-faithful mode: the seed's FFO (k=4, n=25, alpha 0.4, beta 0.6, 200 iterations,
-    /// 40,100 evaluations, linear scale), no refinement.
-    #[arg(long)]
-    pub paper: bool,
     /// Ignore the current column (fit speed only, as the seed does).
     #[arg(long)]
     pub speed_only: bool,
@@ -57,5 +56,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Identify(a) => identify_cmd::run(&a),
         Command::ImportScope(a) => identify_cmd::import_scope(&a),
         Command::Demo(a) => identify_cmd::demo(&a),
+        Command::Diagnose(a) => diagnose::run(&a),
     }
 }

@@ -9,10 +9,10 @@ use crate::simulate_cmd::{simulate, SimulateArgs};
 use crate::spec::problem;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use motor_id_shared::identify::{identify, Identification, IdentifyConfig};
+use motor_id_shared::identify::{identify_from, Identification, IdentifyConfig};
 use motor_id_shared::objective::Objective;
 use motor_id_shared::space::ProblemSpec;
-use motor_id_shared::Record;
+use motor_id_shared::{ModelParams, Record};
 use plotters::style::{RGBColor, BLUE, RED};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -25,6 +25,10 @@ pub struct IdentifyArgs {
     pub files: Vec<PathBuf>,
     #[command(flatten)]
     pub fit: FitOptions,
+    /// Paper-faithful mode: the seed's FFO (k=4, n=25, alpha 0.4, beta 0.6, 200 iterations,
+    /// 40,100 evaluations, linear scale), no refinement.
+    #[arg(long)]
+    pub paper: bool,
     /// Write the JSON report here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -43,18 +47,40 @@ pub struct Fit {
     pub with_current: bool,
 }
 
-/// Identify from loaded records.
-pub fn fit(records: &[OwnedRecord], opts: &FitOptions) -> Result<Fit> {
+/// Identify from loaded records with the problem given on the command line.
+pub fn fit(records: &[OwnedRecord], opts: &FitOptions, paper: bool) -> Result<Fit> {
     let spec = problem(&opts.bounds, &opts.fix)?;
-    let with_current = !opts.speed_only && records.iter().all(|r| r.current.is_some());
-    let borrowed: Vec<Record> = records.iter().map(|r| r.as_record(with_current)).collect();
-    let cfg = if opts.paper {
+    let cfg = if paper {
         IdentifyConfig::paper_faithful(opts.seed)
     } else {
         IdentifyConfig::default_pipeline(opts.seed)
     };
+    run_fit(records, opts, &spec, &cfg, None)
+}
+
+/// Identify `spec` from loaded records with the default pipeline, starting from `initial`
+/// when given.
+pub fn fit_from(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    initial: Option<&ModelParams>,
+) -> Result<Fit> {
+    run_fit(records, opts, spec, &IdentifyConfig::default_pipeline(opts.seed), initial)
+}
+
+fn run_fit(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    cfg: &IdentifyConfig,
+    initial: Option<&ModelParams>,
+) -> Result<Fit> {
+    let spec = *spec;
+    let with_current = !opts.speed_only && records.iter().all(|r| r.current.is_some());
+    let borrowed: Vec<Record> = records.iter().map(|r| r.as_record(with_current)).collect();
     let bar = FitProgress::new(opts.quiet);
-    let result = identify(&borrowed, &spec, &cfg, |p| {
+    let result = identify_from(&borrowed, &spec, cfg, initial, |p| {
         bar.update(p);
         ControlFlow::Continue(())
     });
@@ -74,12 +100,12 @@ fn load(files: &[PathBuf]) -> Result<Vec<OwnedRecord>> {
 /// Run `identify`.
 pub fn run(a: &IdentifyArgs) -> Result<()> {
     let records = load(&a.files)?;
-    let f = fit(&records, &a.fit)?;
+    let f = fit(&records, &a.fit, a.paper)?;
     let samples: usize = records.iter().map(|r| r.len()).sum();
     print!("{}", summary(&f.result, &f.spec, samples, f.with_current));
     let names: Vec<String> = records.iter().map(|r| r.name()).collect();
     if let Some(path) = &a.json {
-        let mode = if a.fit.paper { "paper" } else { "default" };
+        let mode = if a.paper { "paper" } else { "default" };
         let json = identify_json(&f.result, &f.spec, &names, a.fit.seed, mode);
         write_json(path, &json)?;
     }
@@ -291,7 +317,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
             quiet: a.quiet,
             ..FitOptions::default()
         };
-        let f = fit(&records, &opts)?;
+        let f = fit(&records, &opts, false)?;
         print!(
             "{}",
             summary(&f.result, &f.spec, records[0].len(), f.with_current)

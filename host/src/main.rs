@@ -3,6 +3,7 @@
 
 mod cli;
 mod csvio;
+mod diagnose;
 mod identify_cmd;
 mod plot;
 mod progress;

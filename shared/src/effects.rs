@@ -1,7 +1,8 @@
 //! The catalogue of unmodelled effects: names (a stable contract, see DESIGN.md) and the
 //! parameters each one adds to the model. Their physics lives in [`crate::sim`].
 
-use crate::params::ParamId;
+use crate::params::{ModelParams, ParamId};
+use crate::sim::MAX_DELAY_SAMPLES;
 
 /// One effect that the linear model of seed Eq. 5 lacks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,5 +76,47 @@ impl Effect {
             ParamId::RipplePhase => "phase",
             other => other.name(),
         }
+    }
+}
+
+/// Magnitudes of an experiment that set the search range of effect parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scales {
+    /// Largest |armature voltage| [V].
+    pub v_max: f32,
+    /// Largest |speed| [rad/s].
+    pub omega_max: f32,
+    /// Largest |current| [A] (measured, or estimated as `v_max / Ra`).
+    pub current_max: f32,
+    /// Sample step [s] (the smallest over the records).
+    pub dt: f32,
+}
+
+impl Effect {
+    /// Search bounds of this effect's parameters for motor `p` in an experiment of `s`:
+    /// friction up to half the stall torque `Kv v_max / Ra` (seed Eq. 1-4 at standstill), a
+    /// fan load that takes up to the stall torque at top speed, flux weakening up to 50 % at
+    /// the largest current, a brush drop up to 30 % of the voltage, a tacho delay up to what
+    /// the simulator holds, a ripple up to 20 % at 1 to 64 cycles per revolution.
+    pub fn bounds(self, p: &ModelParams, s: &Scales) -> heapless::Vec<(ParamId, f32, f32), 3> {
+        let stall = p.get(ParamId::Kv) * s.v_max / p.get(ParamId::Ra);
+        let w = s.omega_max.max(1e-6);
+        let mut out = heapless::Vec::new();
+        let mut add = |id: ParamId, lo: f32, hi: f32| {
+            let _ = out.push((id, lo, hi.max(lo + f32::EPSILON)));
+        };
+        match self {
+            Effect::CoulombFriction => add(ParamId::Tc, 0.0, 0.5 * stall),
+            Effect::QuadraticLoad => add(ParamId::Kq, 0.0, stall / (w * w)),
+            Effect::ArmatureReaction => add(ParamId::Kar, 0.0, 0.5 / s.current_max.max(1e-6)),
+            Effect::BrushDrop => add(ParamId::Vb, 0.0, 0.3 * s.v_max),
+            Effect::SensorDelay => add(ParamId::Td, 0.0, MAX_DELAY_SAMPLES as f32 * s.dt),
+            Effect::TachoRipple => {
+                add(ParamId::RippleAmp, 0.0, 0.2);
+                add(ParamId::RippleCycles, 1.0, 64.0);
+                add(ParamId::RipplePhase, 0.0, core::f32::consts::TAU);
+            }
+        }
+        out
     }
 }

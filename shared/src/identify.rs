@@ -153,6 +153,18 @@ pub fn identify(
     cfg: &IdentifyConfig,
     progress: impl FnMut(&Progress) -> ControlFlow<()>,
 ) -> Result<Identification, Error> {
+    identify_from(records, spec, cfg, None, progress)
+}
+
+/// As [`identify`], starting from `initial` (free parameters taken from it, e.g. a previous
+/// fit when an effect is added) instead of the equation-error estimate.
+pub fn identify_from(
+    records: &[Record],
+    spec: &ProblemSpec,
+    cfg: &IdentifyConfig,
+    initial: Option<&ModelParams>,
+    progress: impl FnMut(&Progress) -> ControlFlow<()>,
+) -> Result<Identification, Error> {
     let objective = Objective::new(records)?;
     let space = Space::new(spec, cfg.log_scale)?;
     let mut run = Run {
@@ -167,19 +179,20 @@ pub fn identify(
         completed: true,
     };
     let dim = space.dim();
-    // The default pipeline starts from an equation-error estimate; the paper-faithful one
-    // from random points only, as the seed does.
-    let start_u = if cfg.equation_error_start {
-        start(records, spec).map(|p| {
-            let mut full = spec.base;
-            for f in space.free() {
-                full.set(f.id, p.get(f.id));
-            }
-            space.unit(&full)
-        })
-    } else {
-        None
+    // The default pipeline starts from an equation-error estimate (or the caller's point); the
+    // paper-faithful one from random points only, as the seed does.
+    let start_params = match initial {
+        Some(p) => Some(*p),
+        None if cfg.equation_error_start => start(records, spec),
+        None => None,
     };
+    let start_u = start_params.map(|p| {
+        let mut full = spec.base;
+        for f in space.free() {
+            full.set(f.id, p.get(f.id));
+        }
+        space.unit(&full)
+    });
     let floor = NOISE_FLOOR_FACTOR * objective.sigma_omega();
     if let (true, Some(u0), Some(_)) = (cfg.skip_search_at_floor, start_u, cfg.refine) {
         run.refine(&u0[..dim]);

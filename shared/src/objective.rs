@@ -161,7 +161,7 @@ impl<'r, 'a> Objective<'r, 'a> {
             omega: init.omega + shift,
             ..init
         };
-        crate::sim::simulate(p, r.dt, best, r.v, r.load, out_omega, out_current)
+        crate::sim::simulate(p, r.dt, best, r.v, r.load, Some(r.omega), out_omega, out_current)
     }
 
     /// Residual sums of record `r` simulated with `p` (no Jacobian).
@@ -177,9 +177,10 @@ impl<'r, 'a> Objective<'r, 'a> {
             let y = sim.reading();
             let ys = sim_s.as_ref().map_or(y, Simulator::reading);
             sums.add_sample(r, k, y, ys, self.current_weight, &[], &[]);
-            sim.advance(r.v[k], r.load_at(k));
+            let (v, tl, w) = (r.v[k], r.load_at(k), r.angle_rate(k));
+            sim.advance_tracking(v, tl, w);
             if let Some(s) = sim_s.as_mut() {
-                s.advance(r.v[k], r.load_at(k));
+                s.advance_tracking(v, tl, w);
             }
         }
         Some(sums)
@@ -259,13 +260,13 @@ impl<'r, 'a> Objective<'r, 'a> {
                     col_i[d] = -w * (a.current - b.current) / steps[d];
                 }
                 sums.add_sample(r, k, y0, ys, w, &col_w[..dim], &col_i[..dim]);
-                let (v, tl) = (r.v[k], r.load_at(k));
-                sim0.advance(v, tl);
+                let (v, tl, w) = (r.v[k], r.load_at(k), r.angle_rate(k));
+                sim0.advance_tracking(v, tl, w);
                 if let Some(s) = sim_s.as_mut() {
-                    s.advance(v, tl);
+                    s.advance_tracking(v, tl, w);
                 }
                 for s in sims.iter_mut() {
-                    s.advance(v, tl);
+                    s.advance_tracking(v, tl, w);
                 }
             }
             totals.add(&sums.finish(w, dim));

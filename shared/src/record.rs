@@ -60,6 +60,12 @@ impl<'a> Record<'a> {
         Ok(())
     }
 
+    /// Mean measured speed over step `k` (trapezoid of readings `k` and `k + 1`): the rate at
+    /// which the rotor angle advances, see [`crate::sim::Simulator::advance_tracking`].
+    pub fn angle_rate(&self, k: usize) -> f32 {
+        trapezoid_rate(self.omega, k)
+    }
+
     /// Load torque at sample `k` (0 without a load column).
     pub fn load_at(&self, k: usize) -> f32 {
         self.load.map_or(0.0, |l| l[k])
@@ -89,6 +95,14 @@ impl<'a> Record<'a> {
             _ => equilibrium,
         };
         InitialState { current, omega }
+    }
+}
+
+/// Mean of `omega[k]` and `omega[k + 1]` (just `omega[k]` at the end).
+pub fn trapezoid_rate(omega: &[f32], k: usize) -> f32 {
+    match omega.get(k + 1) {
+        Some(next) => 0.5 * (omega[k] + next),
+        None => omega[k],
     }
 }
 

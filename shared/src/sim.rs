@@ -236,6 +236,17 @@ impl Simulator {
 
     /// Advance one step with armature voltage `v` and known load torque `tl` held over it.
     pub fn advance(&mut self, v: f32, tl: f32) {
+        self.step(v, tl, None);
+    }
+
+    /// As [`Simulator::advance`], with the rotor angle of the tacho ripple advanced by the
+    /// *measured* speed: the ripple follows the real rotor, whose angle a fit integrating its
+    /// own (slightly wrong) speed would lose after some thousand revolutions.
+    pub fn advance_tracking(&mut self, v: f32, tl: f32, measured_omega: f32) {
+        self.step(v, tl, Some(measured_omega));
+    }
+
+    fn step(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         let i0 = self.current.hi;
         let w0 = self.omega.hi;
         let flux = self.flux_factor();
@@ -294,7 +305,8 @@ impl Simulator {
             stick_on_crossing(w0, friction, &mut self.omega, &mut self.shaft_stuck);
         }
         if self.ripple_amp != 0.0 {
-            let psi = self.psi + self.ripple_cycles * 0.5 * (w0 + self.omega.hi) * self.dt;
+            let rate = measured_omega.unwrap_or(0.5 * (w0 + self.omega.hi));
+            let psi = self.psi + self.ripple_cycles * rate * self.dt;
             // Wrapped so that f32 sin stays accurate on long records.
             self.psi = libm::remainderf(psi, core::f32::consts::TAU);
         }
@@ -304,17 +316,21 @@ impl Simulator {
 
 /// Simulate a whole record: `out_omega[k]` and `out_current[k]` are the readings at sample
 /// `k`, before the input of sample `k` is applied (the convention of [`crate::record`]).
+/// With `measured_omega`, the ripple angle tracks it (see [`Simulator::advance_tracking`]).
+#[allow(clippy::too_many_arguments)]
 pub fn simulate(
     p: &ModelParams,
     dt: f32,
     init: InitialState,
     v: &[f32],
     tl: Option<&[f32]>,
+    measured_omega: Option<&[f32]>,
     out_omega: &mut [f32],
     out_current: &mut [f32],
 ) -> Result<(), Error> {
     let n = v.len();
-    if out_omega.len() != n || out_current.len() != n || tl.is_some_and(|t| t.len() != n) {
+    let bad = |x: Option<&[f32]>| x.is_some_and(|t| t.len() != n);
+    if out_omega.len() != n || out_current.len() != n || bad(tl) || bad(measured_omega) {
         return Err(Error::LengthMismatch);
     }
     let mut sim = Simulator::new(p, dt, init)?;
@@ -322,7 +338,8 @@ pub fn simulate(
         let r = sim.reading();
         out_omega[k] = r.omega;
         out_current[k] = r.current;
-        sim.advance(v[k], tl.map_or(0.0, |t| t[k]));
+        let rate = measured_omega.map(|m| crate::record::trapezoid_rate(m, k));
+        sim.step(v[k], tl.map_or(0.0, |t| t[k]), rate);
     }
     Ok(())
 }
@@ -338,7 +355,7 @@ mod tests {
     fn trace(p: &ModelParams, dt: f32, n: usize) -> Vec<f32> {
         let v = vec![50.0f32; n];
         let (mut w, mut i) = (vec![0.0; n], vec![0.0; n]);
-        simulate(p, dt, InitialState::REST, &v, None, &mut w, &mut i).unwrap();
+        simulate(p, dt, InitialState::REST, &v, None, None, &mut w, &mut i).unwrap();
         w
     }
 

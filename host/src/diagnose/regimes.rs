@@ -1,0 +1,285 @@
+//! Where the baseline misfits: the residual's share by operating regime and record, its
+//! correlation with the signatures of the catalogued effects, and its order spectrum (a
+//! peak at a fixed number of cycles per revolution scales with speed: the tacho).
+
+use serde_json::{json, Value};
+
+/// One record's baseline residual and what the model says about its operating point.
+pub struct Trace {
+    /// File name.
+    pub name: String,
+    /// "train" or "holdout".
+    pub set: &'static str,
+    /// Sample step [s].
+    pub dt: f32,
+    /// measured - baseline speed [rad/s].
+    pub residual: Vec<f32>,
+    /// Baseline simulated speed [rad/s].
+    pub omega: Vec<f32>,
+    /// Armature current [A] (measured, else simulated).
+    pub current: Vec<f32>,
+}
+
+/// A class of samples.
+struct Regime {
+    name: &'static str,
+    member: fn(&Sample) -> bool,
+}
+
+/// What is known about one sample.
+struct Sample {
+    omega: f32,
+    accel: f32,
+    current: f32,
+    omega_max: f32,
+    accel_max: f32,
+    current_max: f32,
+}
+
+const REGIMES: [Regime; 11] = [
+    Regime { name: "transients (start-up and speed changes)", member: |s| s.accel.abs() > 0.1 * s.accel_max },
+    Regime { name: "steady state", member: |s| s.accel.abs() <= 0.1 * s.accel_max },
+    Regime { name: "acceleration", member: |s| s.accel * s.omega.signum() > 0.1 * s.accel_max },
+    Regime { name: "deceleration", member: |s| s.accel * s.omega.signum() < -0.1 * s.accel_max },
+    Regime { name: "low speed (< 30 % of max)", member: |s| s.omega.abs() < 0.3 * s.omega_max },
+    Regime { name: "high speed (>= 30 % of max)", member: |s| s.omega.abs() >= 0.3 * s.omega_max },
+    Regime { name: "forward rotation", member: |s| s.omega > 0.05 * s.omega_max },
+    Regime { name: "reverse rotation", member: |s| s.omega < -0.05 * s.omega_max },
+    Regime { name: "near standstill", member: |s| s.omega.abs() <= 0.05 * s.omega_max },
+    Regime { name: "positive current", member: |s| s.current > 0.05 * s.current_max },
+    Regime { name: "negative current", member: |s| s.current < -0.05 * s.current_max },
+];
+
+fn peak(x: &[f32]) -> f32 {
+    x.iter().fold(0.0f32, |m, v| m.max(v.abs()))
+}
+
+/// Central-difference derivative.
+fn derivative(x: &[f32], dt: f32) -> Vec<f32> {
+    let n = x.len();
+    (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
+            if b > a {
+                (x[b] - x[a]) / ((b - a) as f32 * dt)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Pearson correlation.
+fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    if n < 2.0 {
+        return 0.0;
+    }
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma) * (x - ma);
+        sbb += (y - mb) * (y - mb);
+    }
+    if saa <= 0.0 || sbb <= 0.0 {
+        0.0
+    } else {
+        sab / (saa * sbb).sqrt()
+    }
+}
+
+/// Order spectrum of the relative residual `r / omega` against rotor angle: the strongest
+/// order in 1..=64 cycles per revolution, and the share of the residual's energy it holds.
+pub fn order_peak(traces: &[Trace]) -> (u32, f64) {
+    let mut best = (1u32, 0.0f64);
+    let mut total = 0.0f64;
+    let mut used = 0usize;
+    // Samples turning faster than 10 % of the top speed, their angle and relative residual.
+    let mut samples: Vec<(f64, f64, f64)> = Vec::new();
+    for t in traces {
+        let wmax = peak(&t.omega);
+        let mut theta = 0.0f64;
+        for k in 0..t.omega.len() {
+            let w = t.omega[k] as f64;
+            if w.abs() > 0.1 * wmax as f64 {
+                samples.push((theta, t.residual[k] as f64, w));
+                total += (t.residual[k] as f64).powi(2);
+                used += 1;
+            }
+            theta += w * t.dt as f64;
+        }
+    }
+    if used < 16 || total <= 0.0 {
+        return best;
+    }
+    for order in 1..=64u32 {
+        // Least-squares fit of r = w (a sin + b cos)(order theta): the ripple model.
+        let (mut ss, mut cc, mut sc, mut rs, mut rc) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(theta, r, w) in &samples {
+            let (s, c) = (order as f64 * theta).sin_cos();
+            let (s, c) = (w * s, w * c);
+            ss += s * s;
+            cc += c * c;
+            sc += s * c;
+            rs += r * s;
+            rc += r * c;
+        }
+        let det = ss * cc - sc * sc;
+        if det <= 0.0 {
+            continue;
+        }
+        let a = (rs * cc - rc * sc) / det;
+        let b = (rc * ss - rs * sc) / det;
+        let explained = a * rs + b * rc;
+        let share = explained / total;
+        if share > best.1 {
+            best = (order, share);
+        }
+    }
+    best
+}
+
+/// The `where` report.
+pub fn analyse(traces: &[Trace], noise: f32) -> Value {
+    let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
+    let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
+    let accels: Vec<Vec<f32>> = traces.iter().map(|t| derivative(&t.omega, t.dt)).collect();
+    let accel_max = accels.iter().map(|a| peak(a)).fold(0.0, f32::max);
+    let mut total = 0.0f64;
+    let mut samples = 0usize;
+    let mut regime_sse = [0.0f64; REGIMES.len()];
+    let mut regime_n = [0usize; REGIMES.len()];
+    // Signatures: what the residual of each effect looks like (DESIGN.md catalogue).
+    let names = [
+        ("minus acceleration", "sensor_delay"),
+        ("minus sign of speed", "coulomb_friction"),
+        ("minus speed*|speed|", "quadratic_load"),
+        ("current*|current|", "armature_reaction"),
+        ("minus sign of current", "brush_drop"),
+    ];
+    let mut sig: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    let mut res_all = Vec::new();
+    let mut records = Vec::new();
+    for (t, acc) in traces.iter().zip(&accels) {
+        let mut sse = 0.0f64;
+        for k in 0..t.residual.len() {
+            let r = t.residual[k] as f64;
+            let s = Sample {
+                omega: t.omega[k],
+                accel: acc[k],
+                current: t.current[k],
+                omega_max,
+                accel_max,
+                current_max,
+            };
+            sse += r * r;
+            for (i, reg) in REGIMES.iter().enumerate() {
+                if (reg.member)(&s) {
+                    regime_sse[i] += r * r;
+                    regime_n[i] += 1;
+                }
+            }
+            let (w, i) = (s.omega as f64, s.current as f64);
+            sig[0].push(-(s.accel as f64));
+            sig[1].push(-w.signum() * (w.abs() > 0.02 * omega_max as f64) as i32 as f64);
+            sig[2].push(-w * w.abs());
+            sig[3].push(i * i.abs());
+            sig[4].push(-i.signum() * (i.abs() > 0.02 * current_max as f64) as i32 as f64);
+            res_all.push(r);
+        }
+        total += sse;
+        samples += t.residual.len();
+        records.push((t.name.clone(), t.set, sse, t.residual.len()));
+    }
+    let total = total.max(f64::MIN_POSITIVE);
+    let n = samples.max(1) as f64;
+    let mut regimes: Vec<Value> = Vec::new();
+    let mut ranked: Vec<(f64, String)> = Vec::new();
+    for (i, reg) in REGIMES.iter().enumerate() {
+        if regime_n[i] == 0 {
+            continue;
+        }
+        let share = regime_sse[i] / total;
+        let sample_share = regime_n[i] as f64 / n;
+        let rmse = (regime_sse[i] / regime_n[i] as f64).sqrt();
+        regimes.push(json!({
+            "name": reg.name,
+            "share_of_misfit": round(share),
+            "share_of_samples": round(sample_share),
+            "rmse": round(rmse),
+        }));
+        ranked.push((share / sample_share, format!(
+            "{:.0} % of the misfit lies in {} ({:.0} % of the samples, rmse {:.3} rad/s)",
+            100.0 * share, reg.name, 100.0 * sample_share, rmse
+        )));
+    }
+    regimes.sort_by(|a, b| {
+        let c = |v: &Value| v["share_of_misfit"].as_f64().unwrap_or(0.0) / v["share_of_samples"].as_f64().unwrap_or(1.0);
+        c(b).total_cmp(&c(a))
+    });
+    ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let per_record: Vec<Value> = records
+        .iter()
+        .map(|(name, set, sse, len)| {
+            json!({
+                "file": name, "set": set,
+                "share_of_misfit": round(sse / total),
+                "rmse": round((sse / *len.max(&1) as f64).sqrt()),
+            })
+        })
+        .collect();
+    let mut signatures: Vec<(f64, Value)> = names
+        .iter()
+        .zip(&sig)
+        .map(|((name, effect), s)| {
+            let c = correlation(&res_all, s);
+            (c.abs(), json!({ "signature": name, "points_to": effect, "correlation": round(c) }))
+        })
+        .collect();
+    signatures.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let (order, share) = order_peak(traces);
+    let mut summary: Vec<String> = ranked
+        .iter()
+        .filter(|(ratio, _)| *ratio > 1.3)
+        .take(3)
+        .map(|(_, s)| s.clone())
+        .collect();
+    let rmse = (total / n).sqrt();
+    if rmse <= 1.05 * noise as f64 {
+        summary.insert(0, format!("the baseline fits to the noise ({rmse:.3} vs {noise:.3} rad/s): no misfit to locate"));
+    }
+    if let Some((c, v)) = signatures.first() {
+        if *c > 0.3 {
+            summary.push(format!(
+                "the residual follows {} (correlation {:.2}), the signature of {}",
+                v["signature"].as_str().unwrap_or(""),
+                v["correlation"].as_f64().unwrap_or(0.0),
+                v["points_to"].as_str().unwrap_or("")
+            ));
+        }
+    }
+    if share > 0.2 {
+        summary.push(format!(
+            "{:.0} % of the residual is a ripple at {order} cycles per revolution: it scales with speed (tacho)",
+            100.0 * share
+        ));
+    }
+    json!({
+        "rmse": round(rmse),
+        "noise": round(noise as f64),
+        "regimes": regimes,
+        "records": per_record,
+        "signatures": signatures.into_iter().map(|(_, v)| v).collect::<Vec<_>>(),
+        "spectrum": { "order_cycles_per_rev": order, "share_of_residual": round(share), "points_to": "tacho_ripple" },
+        "summary": summary,
+    })
+}
+
+fn round(x: f64) -> f64 {
+    if x.is_finite() {
+        (x * 1e6).round() / 1e6
+    } else {
+        0.0
+    }
+}

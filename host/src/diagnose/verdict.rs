@@ -1,0 +1,72 @@
+//! The significance rule: is an effect real, or the least-bad way to fit noise?
+//!
+//! An effect is accepted only when both hold:
+//! - on the training records, the Bayesian information criterion falls by more than 10
+//!   (`n ln(SSE_e / SSE_0) + k ln n`, with `n` residuals and `k` added parameters): strong
+//!   evidence, where fitting noise with `k` extra parameters lowers `n ln SSE` by about `k`
+//!   but pays `k ln n`;
+//! - on the held-out records, which the fit never saw, the RMSE falls by at least 2 % and by
+//!   at least 10 % of the misfit above the measured noise (`rmse^2 - sigma^2`). Data without
+//!   an unmodelled effect is fitted to the noise by the baseline already, so no effect can
+//!   pass this, and the verdict is `null`.
+
+use crate::identify_cmd::Fit;
+
+/// Smallest BIC drop on the training records.
+const BIC_DROP: f64 = 10.0;
+/// Smallest relative drop of the held-out RMSE.
+const HOLDOUT_DROP: f32 = 0.02;
+/// Smallest share of the held-out misfit above noise that must go.
+const EXCESS_SHARE: f32 = 0.1;
+
+/// What the rule needs of a fitted model.
+pub struct Candidate {
+    sse: f64,
+    residuals: usize,
+    holdout_rmse: f32,
+    added_params: usize,
+}
+
+impl Candidate {
+    /// A fit, its held-out RMSE and how many parameters it adds to the reference.
+    pub fn of(fit: &Fit, holdout_rmse: f32, added_params: usize) -> Candidate {
+        Candidate {
+            sse: fit.result.cost.sse,
+            residuals: fit.result.cost.residuals,
+            holdout_rmse,
+            added_params,
+        }
+    }
+}
+
+/// True when `candidate` is a real improvement over `reference` (module doc).
+pub fn significant(reference: &Candidate, candidate: &Candidate, holdout_noise: f32) -> bool {
+    let n = reference.residuals.max(1) as f64;
+    let bic = n * (candidate.sse.max(f64::MIN_POSITIVE) / reference.sse.max(f64::MIN_POSITIVE)).ln()
+        + candidate.added_params as f64 * n.ln();
+    let (before, after) = (reference.holdout_rmse, candidate.holdout_rmse);
+    let excess = (before * before - holdout_noise * holdout_noise).max(0.0);
+    bic < -BIC_DROP
+        && after <= (1.0 - HOLDOUT_DROP) * before
+        && before * before - after * after >= EXCESS_SHARE * excess
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cand(sse: f64, holdout: f32, k: usize) -> Candidate {
+        Candidate { sse, residuals: 2000, holdout_rmse: holdout, added_params: k }
+    }
+
+    #[test]
+    fn noise_fitting_is_refused_and_a_real_effect_accepted() {
+        let base = cand(2000.0 * 0.25, 0.5, 0);
+        // One parameter that lowers SSE by 2 sigma^2 (noise fitting): BIC rises.
+        assert!(!significant(&base, &cand(2000.0 * 0.25 - 0.5, 0.499, 1), 0.5));
+        // Train much better but held-out not: refused.
+        assert!(!significant(&base, &cand(400.0, 0.499, 1), 0.45));
+        // Both much better: accepted.
+        assert!(significant(&base, &cand(400.0, 0.46, 1), 0.45));
+    }
+}
