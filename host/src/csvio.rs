@@ -126,9 +126,16 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
     let mut omega = Vec::new();
     let mut current = i_col.map(|_| Vec::new());
     let mut load = tl_col.map(|_| Vec::new());
+    let mut lines = Vec::new();
     for (row, result) in reader.records().enumerate() {
-        let line = row + 2;
-        let rec = result.map_err(|e| anyhow!("line {line}: {}", csv_message(&e)))?;
+        let rec = result.map_err(|e| {
+            let line = e.position().map_or(row as u64 + 2, |p| p.line());
+            anyhow!("line {line}: {}", csv_message(&e))
+        })?;
+        let line = rec.position().map_or(row as u64 + 2, |p| p.line());
+        lines.push(line);
+        // Every column is stored as f32 (time as f64): a value beyond f32 is refused here,
+        // with its line, rather than later as an anonymous infinity.
         let field = |c: usize, name: &str| -> Result<f64> {
             let text = rec
                 .get(c)
@@ -136,8 +143,8 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
             let x: f64 = text
                 .parse()
                 .map_err(|_| anyhow!("line {line}: {name} = '{text}' is not a number"))?;
-            if !x.is_finite() {
-                bail!("line {line}: {name} = '{text}' is not finite");
+            if !x.is_finite() || !(x as f32).is_finite() {
+                bail!("line {line}: {name} = '{text}' is not finite (as a 32-bit float)");
             }
             Ok(x)
         };
@@ -157,7 +164,7 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
     if t.len() < MIN_SAMPLES {
         bail!("only {} data rows (need at least {MIN_SAMPLES})", t.len());
     }
-    let dt = uniform_step(&t)?;
+    let dt = uniform_step(&t, &lines)?;
     let rec = OwnedRecord {
         path: path.to_path_buf(),
         t0: t[0],
@@ -171,28 +178,32 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
     Ok(rec)
 }
 
-/// The mean step of strictly increasing, uniformly spaced times.
-fn uniform_step(t: &[f64]) -> Result<f32> {
+/// The mean step of strictly increasing, uniformly spaced times (`lines[k]`: the file line
+/// of `t[k]`, for messages).
+fn uniform_step(t: &[f64], lines: &[u64]) -> Result<f32> {
     let n = t.len();
     let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
     for k in 1..n {
         let step = t[k] - t[k - 1];
+        let line = lines[k];
         if step <= 0.0 {
             bail!(
-                "time is not increasing at line {} (t = {} after {})",
-                k + 2,
+                "time is not increasing at line {line} (t = {} after {})",
                 t[k],
                 t[k - 1]
             );
         }
         if (step - dt).abs() > STEP_TOLERANCE * dt {
             bail!(
-                "time step is not uniform at line {}: {step} s where the mean step is {dt} s",
-                k + 2
+                "time step is not uniform at line {line}: {step} s where the mean step is {dt} s"
             );
         }
     }
-    Ok(dt as f32)
+    let dt32 = dt as f32;
+    if !(dt32.is_finite() && dt32 > 0.0) {
+        bail!("time step {dt} s is not representable");
+    }
+    Ok(dt32)
 }
 
 fn csv_message(e: &csv::Error) -> String {
@@ -237,7 +248,8 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
     };
     let mut t = Vec::new();
     let mut omega = Vec::new();
-    for line in text.lines() {
+    let mut lines = Vec::new();
+    for (number, line) in text.lines().enumerate() {
         let fields: Vec<&str> = line
             .split(sep)
             .map(|f| f.trim().trim_matches('"'))
@@ -250,6 +262,7 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
         };
         if let (Some(time), Some(volts)) = (get(s.time_column), get(s.channel)) {
             t.push(time);
+            lines.push(number as u64 + 1);
             let w = volts as f32 * s.gain;
             omega.push(if s.inverted { -w } else { w });
         }
@@ -264,12 +277,12 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
         ))
         .with_context(context);
     }
-    let dt = uniform_step(&t).with_context(context)?;
+    let dt = uniform_step(&t, &lines).with_context(context)?;
     let v = t
         .iter()
         .map(|&ti| if ti >= s.step_at { s.voltage } else { 0.0 })
         .collect();
-    Ok(OwnedRecord {
+    let rec = OwnedRecord {
         path: path.to_path_buf(),
         t0: t[0],
         dt,
@@ -277,7 +290,11 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
         omega,
         current: None,
         load: None,
-    })
+    };
+    rec.as_record(false)
+        .validate()
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    Ok(rec)
 }
 
 #[cfg(test)]
@@ -320,9 +337,11 @@ mod tests {
         let t: Vec<f64> = (0..100)
             .map(|k| k as f64 * 0.001 + if k % 2 == 1 { 4e-6 } else { 0.0 })
             .collect();
-        assert!(uniform_step(&t).is_ok());
+        let lines: Vec<u64> = (2..102).collect();
+        assert!(uniform_step(&t, &lines).is_ok());
         let mut bad = t.clone();
         bad[50] += 0.0005;
-        assert!(uniform_step(&bad).is_err());
+        let err = uniform_step(&bad, &lines).unwrap_err().to_string();
+        assert!(err.contains("line 52"), "{err}");
     }
 }

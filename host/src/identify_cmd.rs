@@ -66,7 +66,13 @@ pub fn fit_from(
     spec: &ProblemSpec,
     initial: Option<&ModelParams>,
 ) -> Result<Fit> {
-    run_fit(records, opts, spec, &IdentifyConfig::default_pipeline(opts.seed), initial)
+    run_fit(
+        records,
+        opts,
+        spec,
+        &IdentifyConfig::default_pipeline(opts.seed),
+        initial,
+    )
 }
 
 fn run_fit(

@@ -33,6 +33,8 @@ pub enum Error {
     InvalidConfig,
     /// No candidate produced a finite cost.
     NoFiniteCandidate,
+    /// The tacho delay exceeds what the simulator holds (`MAX_DELAY_SAMPLES` steps).
+    DelayTooLong,
 }
 
 impl fmt::Display for Error {
@@ -61,6 +63,11 @@ impl fmt::Display for Error {
             Error::TooManyParameters => f.write_str("too many free parameters"),
             Error::InvalidConfig => f.write_str("inconsistent optimiser configuration"),
             Error::NoFiniteCandidate => f.write_str("no candidate gave a finite cost"),
+            Error::DelayTooLong => write!(
+                f,
+                "tacho delay td is longer than {} samples",
+                crate::sim::MAX_DELAY_SAMPLES
+            ),
         }
     }
 }

@@ -5,8 +5,9 @@
 //! leave the speed trace unchanged (e.g. Ra, La scaled by lambda and J, B by 1/lambda). The
 //! analysis here is local and numerical, so it covers any record, effect and fixed set:
 //! the Fisher information `F = J^T J / sigma^2` of the weighted residuals with respect to the
-//! natural coordinates (`ln p` for log-scaled parameters, `p` for linear ones) is
-//! eigen-decomposed; a direction is *pinned* when its standard deviation `1/sqrt(eig)` is at
+//! natural coordinates (`ln p` for parameters with positive bounds, whatever the search
+//! scale; `p / max(|p|, 1 % of the range)` for effect parameters that may be 0, see
+//! [`crate::space::FreeParam::natural_per_unit`]) is eigen-decomposed; a direction is *pinned* when its standard deviation `1/sqrt(eig)` is at
 //! most [`PINNED_STD`] (10 % for a log coordinate) and its eigenvalue stands clear of the
 //! numerical floor of the finite-difference Jacobian (ten times the magnitude of the most
 //! negative eigenvalue, which exact arithmetic would make non-negative, and at least 1e-8 of
@@ -23,7 +24,7 @@ use crate::error::Error;
 use crate::linalg::symmetric_eigen;
 use crate::objective::{Cost, Objective};
 use crate::params::{ModelParams, ParamId};
-use crate::space::{Scale, Space, MAX_FREE};
+use crate::space::{Space, MAX_FREE};
 
 /// Largest standard deviation (in natural coordinates) of a pinned direction.
 pub const PINNED_STD: f64 = 0.1;
@@ -162,10 +163,15 @@ pub fn analyse(
     let dof = (cost.residuals as f64 - dim as f64).max(1.0);
     let sigma2 = (cost.sse / dof).max(f64::MIN_POSITIVE);
     let free = space.free();
+    let p = space.params(u);
+    let mut per_unit = [1.0f64; MAX_FREE];
+    for (i, f) in free.iter().enumerate() {
+        per_unit[i] = f.natural_per_unit(p.get(f.id));
+    }
     let mut fisher = [[0.0f64; MAX_FREE]; MAX_FREE];
     for a in 0..dim {
         for b in 0..dim {
-            let scale = free[a].natural_per_unit() as f64 * free[b].natural_per_unit() as f64;
+            let scale = per_unit[a] * per_unit[b];
             fisher[a][b] = ne.jtj[a][b] / scale / sigma2;
         }
     }
@@ -194,7 +200,7 @@ pub fn analyse(
                 continue;
             }
             // Position in natural units measured from the lower and upper bound.
-            let span = free[i].natural_per_unit() as f64;
+            let span = per_unit[i];
             let below = -(u[i] as f64) * span;
             let above = (1.0 - u[i] as f64) * span;
             let (a, b) = if v > 0.0 {
@@ -236,17 +242,13 @@ pub fn analyse(
         let std = libm::sqrt(var);
         (flat <= FLAT_SHARE * norm2 && std <= PINNED_STD, std)
     };
-    let p = space.params(u);
     let mut params = heapless::Vec::new();
     for (i, f) in free.iter().enumerate() {
         let mut g = [0.0f64; MAX_FREE];
         g[i] = 1.0;
         let (pinned, std_z) = certainty(&g);
         let value = p.get(f.id);
-        let std = match f.scale {
-            Scale::Log => std_z * value as f64,
-            Scale::Linear => std_z,
-        };
+        let std = std_z * f.natural_scale(value);
         let _ = params.push(ParamCertainty {
             id: f.id,
             value,
@@ -261,11 +263,8 @@ pub fn analyse(
             let mut g = [0.0f64; MAX_FREE];
             for (i, f) in free.iter().enumerate() {
                 if f.id.is_motor() {
-                    let e = dlog[f.id.index()] as f64;
-                    g[i] = match f.scale {
-                        Scale::Log => e,
-                        Scale::Linear => e / p.get(f.id) as f64,
-                    };
+                    // Motor parameters have positive bounds: natural coordinate ln p.
+                    g[i] = dlog[f.id.index()] as f64;
                 }
             }
             let (pinned, rel) = certainty(&g);

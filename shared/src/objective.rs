@@ -7,7 +7,7 @@
 
 use crate::error::Error;
 use crate::linalg::{Mat, Vector};
-use crate::params::{ModelParams, ParamId};
+use crate::params::ModelParams;
 use crate::record::{noise_sigma, Record};
 use crate::sim::{InitialState, Reading, Simulator};
 use crate::space::{Space, MAX_FREE};
@@ -118,13 +118,7 @@ impl<'r, 'a> Objective<'r, 'a> {
     /// and, unless the record starts at rest, the same with the speed raised by [`SHIFT`] to
     /// fit the initial speed (a known start at rest is information that is kept).
     fn initial_pair(&self, r: &Record, p: &ModelParams) -> (InitialState, Option<InitialState>) {
-        let sigma_current = self.sigma_current.unwrap_or(0.0);
-        let init = r.initial_state(
-            p.get(ParamId::Kv),
-            p.get(ParamId::B),
-            self.sigma_omega,
-            sigma_current,
-        );
+        let init = r.initial_state(p, self.sigma_omega, self.sigma_current);
         let shifted = (init.omega != 0.0).then_some(InitialState {
             omega: init.omega + SHIFT,
             ..init
@@ -161,7 +155,16 @@ impl<'r, 'a> Objective<'r, 'a> {
             omega: init.omega + shift,
             ..init
         };
-        crate::sim::simulate(p, r.dt, best, r.v, r.load, Some(r.omega), out_omega, out_current)
+        crate::sim::simulate(
+            p,
+            r.dt,
+            best,
+            r.v,
+            r.load,
+            Some(r.omega),
+            out_omega,
+            out_current,
+        )
     }
 
     /// Residual sums of record `r` simulated with `p` (no Jacobian).
@@ -445,23 +448,37 @@ impl Totals {
     }
 }
 
-/// Pooled noise of several signals, floored at 1e-4 of their RMS (noise-free simulations
-/// would otherwise give a zero weight or a division by zero).
+/// Pooled noise of several signals, floored at the quantisation noise `q / sqrt(12)` of the
+/// smallest step `q` between readings (an ADC- or encoder-quantised signal that is mostly
+/// flat has zero second differences) and at 1e-4 of the RMS (noise-free simulations would
+/// otherwise give a zero weight or a division by zero).
 pub fn pooled_sigma<'s>(signals: impl Iterator<Item = &'s [f32]>) -> f32 {
     let mut var = 0.0f64;
     let mut ms = 0.0f64;
     let mut count = 0usize;
+    let mut quantum = f32::INFINITY;
     for s in signals {
         let sig = noise_sigma(s) as f64;
         var += sig * sig * s.len() as f64;
         ms += s.iter().map(|x| (*x as f64) * (*x as f64)).sum::<f64>();
         count += s.len();
+        for w in s.windows(2) {
+            let d = (w[1] - w[0]).abs();
+            if d > 0.0 && d < quantum {
+                quantum = d;
+            }
+        }
     }
     if count == 0 {
         return 1.0;
     }
     let sigma = libm::sqrt(var / count as f64);
-    let floor = 1e-4 * libm::sqrt(ms / count as f64) + 1e-12;
+    let quantisation = if quantum.is_finite() {
+        quantum as f64 / libm::sqrt(12.0)
+    } else {
+        0.0
+    };
+    let floor = (1e-4 * libm::sqrt(ms / count as f64) + 1e-12).max(quantisation);
     sigma.max(floor) as f32
 }
 

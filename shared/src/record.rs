@@ -2,6 +2,7 @@
 //! from it: the initial state and a noise estimate.
 
 use crate::error::Error;
+use crate::params::{ModelParams, ParamId};
 use crate::sim::InitialState;
 
 /// Fewest samples a record may hold.
@@ -71,30 +72,42 @@ impl<'a> Record<'a> {
         self.load.map_or(0.0, |l| l[k])
     }
 
-    /// Initial state of the simulation for this record and motor. Speed: the first reading,
-    /// or exactly rest when it is within three standard deviations `sigma_omega` of zero (a
-    /// record that starts indistinguishable from rest starts at rest). Current: the
-    /// mechanical equilibrium `Kv i = B w + tl` (seed Eq. 4 with dw/dt = 0), exact at rest and
-    /// in steady state, unless a measured first current differs from it by more than three
-    /// `sigma_current`. (A noisy first reading taken as the state would persist for a time
-    /// constant: La/Ra reaches seconds in the seed's Table 1 box.)
+    /// Initial state of the simulation for this record and motor `p`. Speed: the first
+    /// reading, or exactly rest when it is within three standard deviations `sigma_omega` of
+    /// zero (a record that starts indistinguishable from rest starts at rest). Current: the
+    /// mechanical equilibrium `Kv i = B w + tc sign(w) + kq w |w| + tl` (seed Eq. 4 with
+    /// dw/dt = 0 and the friction effects), exact at rest and in steady state, unless the
+    /// current is fitted (`sigma_current` given) and its first reading differs from that by
+    /// more than three `sigma_current`. (A noisy first reading taken as the state would
+    /// persist for a time constant: La/Ra reaches seconds in the seed's Table 1 box.)
     pub fn initial_state(
         &self,
-        kv: f32,
-        b: f32,
+        p: &ModelParams,
         sigma_omega: f32,
-        sigma_current: f32,
+        sigma_current: Option<f32>,
     ) -> InitialState {
         let mut omega = self.omega[0];
         if omega.abs() <= 3.0 * sigma_omega {
             omega = 0.0;
         }
-        let equilibrium = (b * omega + self.load_at(0)) / kv;
-        let current = match self.current {
-            Some(c) if (c[0] - equilibrium).abs() > 3.0 * sigma_current => c[0],
+        let friction = p.get(ParamId::Tc) * sign(omega) + p.get(ParamId::Kq) * omega * omega.abs();
+        let equilibrium =
+            (p.get(ParamId::B) * omega + friction + self.load_at(0)) / p.get(ParamId::Kv);
+        let current = match (self.current, sigma_current) {
+            (Some(c), Some(sc)) if (c[0] - equilibrium).abs() > 3.0 * sc => c[0],
             _ => equilibrium,
         };
         InitialState { current, omega }
+    }
+}
+
+fn sign(x: f32) -> f32 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
     }
 }
 
@@ -108,9 +121,9 @@ pub fn trapezoid_rate(omega: &[f32], k: usize) -> f32 {
 
 /// Standard deviation of white measurement noise on a smooth signal, from its second
 /// differences: `var(x[k+1] - 2 x[k] + x[k-1]) = 6 sigma^2` for white noise, while a signal
-/// sampled well above its bandwidth contributes almost nothing. A median-based estimate
-/// would be more robust to steps; the mean of the smaller half of squared differences is
-/// used instead (fixed memory, no sort), scaled for a normal distribution.
+/// sampled well above its bandwidth contributes almost nothing. Steps and transients show as
+/// a few large second differences: those above twice their RMS are left out (fixed memory,
+/// no sort) and the rest scaled for a normal distribution truncated at 2 sigma.
 pub fn noise_sigma(x: &[f32]) -> f32 {
     if x.len() < 3 {
         return 0.0;
@@ -136,8 +149,9 @@ pub fn noise_sigma(x: &[f32]) -> f32 {
     if count == 0 {
         return 0.0;
     }
-    // For a normal variable, E[d^2 | d^2 <= 4 E d^2] = 0.7385 E[d^2] (truncation at 2 sigma).
-    let var_d = trimmed / count as f64 / 0.7385;
+    // For a normal variable, E[d^2 | |d| <= 2 sigma] = (1 - 4 phi(2) / (2 Phi(2) - 1)) sigma^2
+    // = 0.7737 sigma^2.
+    let var_d = trimmed / count as f64 / 0.7737;
     libm::sqrt(var_d / 6.0) as f32
 }
 
@@ -156,7 +170,7 @@ mod tests {
             })
             .collect();
         let est = noise_sigma(&x);
-        assert!((est / sigma - 1.0).abs() < 0.05, "estimated {est}");
+        assert!((est / sigma - 1.0).abs() < 0.02, "estimated {est}");
     }
 
     #[test]

@@ -180,11 +180,13 @@ fn lm_step(
         match trial_cost {
             Some(c) if c.sse < ne.cost.sse => {
                 let gain = (ne.cost.sse - c.sse) / ne.cost.sse.max(f64::MIN_POSITIVE);
-                *u = trial;
                 *lambda = (*lambda / 5.0).max(1e-12);
-                return match objective.normal_equations(space, &u[..dim], cfg.h, central) {
+                // The point moves only with its normal equations, so that `u` and `ne.cost`
+                // always belong together.
+                return match objective.normal_equations(space, &trial[..dim], cfg.h, central) {
                     Some(n) => {
                         evaluations += n.simulations;
+                        *u = trial;
                         *ne = n;
                         StepOutcome::Improved { gain, evaluations }
                     }

@@ -144,7 +144,10 @@ impl Simulator {
     pub fn new(p: &ModelParams, dt: f32, init: InitialState) -> Result<Simulator, Error> {
         p.validate()?;
         let disc = Discrete::new(p, dt)?;
-        let delay = (p.get(ParamId::Td) / dt).min(MAX_DELAY_SAMPLES as f32);
+        let delay = p.get(ParamId::Td) / dt;
+        if delay > MAX_DELAY_SAMPLES as f32 {
+            return Err(Error::DelayTooLong);
+        }
         let delay_whole = libm::floorf(delay) as usize;
         let mut s = Simulator {
             disc,
@@ -269,12 +272,7 @@ impl Simulator {
             true
         };
         let shaft_moves = if self.tc > 0.0 {
-            match dead_zone_opposition(
-                w0,
-                self.kv * flux * i0 - load,
-                self.tc,
-                &mut self.shaft_stuck,
-            ) {
+            match dead_zone_opposition(w0, self.kv * i0 - load, self.tc, &mut self.shaft_stuck) {
                 Some(o) => {
                     friction = o;
                     true
@@ -434,14 +432,14 @@ mod tests {
             kq in prop_oneof![Just(0.0f32), 0.0f32..1e-3],
             kar in prop_oneof![Just(0.0f32), 0.0f32..0.1],
             vb in prop_oneof![Just(0.0f32), 0.0f32..5.0],
-            td in prop_oneof![Just(0.0f32), 0.0f32..0.02],
+            td_frac in prop_oneof![Just(0.0f32), 0.0f32..1.0],
             ripple in prop_oneof![Just(0.0f32), 0.0f32..0.2],
             profile in prop_oneof![Just(Profile::Start), Just(Profile::Steps), Just(Profile::Load), Just(Profile::Reversal)],
         ) {
             let p = ModelParams::motor(ra, la, j, b, kv)
                 .with(ParamId::Tc, tc).with(ParamId::Kq, kq).with(ParamId::Kar, kar)
-                .with(ParamId::Vb, vb).with(ParamId::Td, td).with(ParamId::RippleAmp, ripple)
-                .with(ParamId::RippleCycles, 4.0);
+                .with(ParamId::Vb, vb).with(ParamId::Td, td_frac * MAX_DELAY_SAMPLES as f32 / rate)
+                .with(ParamId::RippleAmp, ripple).with(ParamId::RippleCycles, 4.0);
             let dt = 1.0 / rate;
             let n = 600;
             let exp = Experiment { profile, voltage: 220.0, duration: n as f32 * dt, load_torque: 0.5 };

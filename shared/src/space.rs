@@ -112,12 +112,27 @@ impl FreeParam {
         }
     }
 
-    /// `d(natural coordinate)/du`, where the natural coordinate is `ln p` for log-scaled and
-    /// `p` for linear parameters.
-    pub fn natural_per_unit(&self) -> f32 {
+    /// The natural unit of this parameter at value `p`: a parameter with positive bounds is
+    /// measured relative to its value (natural coordinate `ln p`, whatever the search scale);
+    /// one whose range includes 0 (an effect that may be absent) relative to
+    /// `max(|p|, 1 % of the range)`. Returns `d(natural coordinate)/du` at `p`.
+    pub fn natural_per_unit(&self, p: f32) -> f64 {
+        let (lo, hi, p) = (self.lo as f64, self.hi as f64, p as f64);
         match self.scale {
-            Scale::Linear => self.hi - self.lo,
-            Scale::Log => libm::logf(self.hi / self.lo),
+            Scale::Log => libm::log(hi / lo),
+            Scale::Linear if lo > 0.0 => (hi - lo) / p.max(lo),
+            Scale::Linear => (hi - lo) / self.natural_scale(p as f32),
+        }
+    }
+
+    /// One natural unit in the parameter's own unit at value `p` (see
+    /// [`FreeParam::natural_per_unit`]): `p` itself, or `max(|p|, 1 % of the range)`.
+    pub fn natural_scale(&self, p: f32) -> f64 {
+        let (lo, hi, p) = (self.lo as f64, self.hi as f64, p as f64);
+        if lo > 0.0 {
+            p
+        } else {
+            p.abs().max(0.01 * (hi - lo))
         }
     }
 }

@@ -56,7 +56,11 @@ struct Data {
 
 impl Data {
     fn holdout_rmse(&self, p: &ModelParams) -> Result<f32> {
-        let recs: Vec<Record> = self.holdout.iter().map(|r| r.as_record(self.with_current)).collect();
+        let recs: Vec<Record> = self
+            .holdout
+            .iter()
+            .map(|r| r.as_record(self.with_current))
+            .collect();
         let obj = Objective::new(&recs).map_err(|e| anyhow!("holdout: {e}"))?;
         obj.cost(p)
             .map(|c| c.rmse_omega)
@@ -64,8 +68,14 @@ impl Data {
     }
 
     fn holdout_noise(&self) -> Result<f32> {
-        let recs: Vec<Record> = self.holdout.iter().map(|r| r.as_record(self.with_current)).collect();
-        Ok(Objective::new(&recs).map_err(|e| anyhow!("holdout: {e}"))?.sigma_omega())
+        let recs: Vec<Record> = self
+            .holdout
+            .iter()
+            .map(|r| r.as_record(self.with_current))
+            .collect();
+        Ok(Objective::new(&recs)
+            .map_err(|e| anyhow!("holdout: {e}"))?
+            .sigma_omega())
     }
 
     fn scales(&self, p: &ModelParams) -> Scales {
@@ -73,22 +83,44 @@ impl Data {
         let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
         let v_max = all.clone().map(|r| peak(&r.v)).fold(0.0, f32::max);
         let omega_max = all.clone().map(|r| peak(&r.omega)).fold(0.0, f32::max);
-        let measured = all.clone().filter_map(|r| r.current.as_deref().map(peak)).fold(0.0, f32::max);
-        let current_max = if measured > 0.0 { measured } else { v_max / p.get(ParamId::Ra) };
+        let measured = all
+            .clone()
+            .filter_map(|r| r.current.as_deref().map(peak))
+            .fold(0.0, f32::max);
+        let current_max = if measured > 0.0 {
+            measured
+        } else {
+            v_max / p.get(ParamId::Ra)
+        };
         let dt = all.map(|r| r.dt).fold(f32::INFINITY, f32::min);
-        Scales { v_max, omega_max, current_max, dt }
+        Scales {
+            v_max,
+            omega_max,
+            current_max,
+            dt,
+        }
     }
 
     fn score(&self, fit: Fit) -> Result<Scored> {
         let holdout_rmse = self.holdout_rmse(&fit.result.params)?;
-        Ok(Scored { train_rmse: fit.result.cost.rmse_omega, holdout_rmse, fit })
+        Ok(Scored {
+            train_rmse: fit.result.cost.rmse_omega,
+            holdout_rmse,
+            fit,
+        })
     }
 }
 
 /// `spec` with `effect` free within bounds scaled to `base` (user bounds or fixes on its
 /// parameters are kept); for the tacho ripple the number of cycles is the order found in the
 /// residual, held fixed (the phase and amplitude are fitted).
-fn with_effect(spec: &ProblemSpec, effect: Effect, base: &ModelParams, scales: &Scales, order: u32) -> Result<ProblemSpec> {
+fn with_effect(
+    spec: &ProblemSpec,
+    effect: Effect,
+    base: &ModelParams,
+    scales: &Scales,
+    order: u32,
+) -> Result<ProblemSpec> {
     let mut s = *spec;
     s.base = *base;
     for (id, lo, hi) in effect.bounds(base, scales) {
@@ -103,7 +135,8 @@ fn with_effect(spec: &ProblemSpec, effect: Effect, base: &ModelParams, scales: &
         if user_fixed || spec.free[id.index()] {
             continue;
         }
-        s.set_bounds(id, lo, hi).map_err(|e| anyhow!("{} bounds: {e}", effect.name()))?;
+        s.set_bounds(id, lo, hi)
+            .map_err(|e| anyhow!("{} bounds: {e}", effect.name()))?;
         s.free(id);
     }
     Ok(s)
@@ -119,17 +152,28 @@ fn params_json(p: &ModelParams, ids: &[ParamId]) -> Value {
 
 /// Run `diagnose`.
 pub fn run(a: &DiagnoseArgs) -> Result<()> {
-    let load = |files: &[PathBuf]| -> Result<Vec<OwnedRecord>> { files.iter().map(|f| OwnedRecord::read(f)).collect() };
+    let load = |files: &[PathBuf]| -> Result<Vec<OwnedRecord>> {
+        files.iter().map(|f| OwnedRecord::read(f)).collect()
+    };
     let train = load(&a.train)?;
     let holdout = load(&a.holdout)?;
-    let with_current = !a.fit.speed_only && train.iter().chain(&holdout).all(|r| r.current.is_some());
-    let data = Data { train, holdout, with_current };
+    let with_current =
+        !a.fit.speed_only && train.iter().chain(&holdout).all(|r| r.current.is_some());
+    let data = Data {
+        train,
+        holdout,
+        with_current,
+    };
     let say = |msg: String| {
         if !a.fit.quiet {
             eprintln!("{msg}");
         }
     };
-    let quiet = FitOptions { quiet: true, speed_only: !with_current, ..a.fit.clone() };
+    let quiet = FitOptions {
+        quiet: true,
+        speed_only: !with_current,
+        ..a.fit.clone()
+    };
     let spec = crate::spec::problem(&a.fit.bounds, &a.fit.fix)?;
     say("fitting the baseline model on the training records".into());
     let baseline = data.score(fit_from(&data.train, &quiet, &spec, None)?)?;
@@ -144,7 +188,12 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     // Which: every effect of the catalogue, refitted on the training records.
     let mut scored: Vec<(Effect, Scored)> = Vec::new();
     for (k, effect) in Effect::ALL.iter().enumerate() {
-        say(format!("fitting with {} ({}/{})", effect.name(), k + 1, Effect::ALL.len()));
+        say(format!(
+            "fitting with {} ({}/{})",
+            effect.name(),
+            k + 1,
+            Effect::ALL.len()
+        ));
         let s = with_effect(&spec, *effect, &base_params, &scales, order)?;
         let f = fit_from(&data.train, &quiet, &s, Some(&base_params))?;
         scored.push((*effect, data.score(f)?));
@@ -153,7 +202,13 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let reference = Candidate::of(&baseline.fit, baseline.holdout_rmse, 0);
     let first = scored
         .iter()
-        .filter(|(e, s)| significant(&reference, &Candidate::of(&s.fit, s.holdout_rmse, e.params().len()), holdout_noise))
+        .filter(|(e, s)| {
+            significant(
+                &reference,
+                &Candidate::of(&s.fit, s.holdout_rmse, e.params().len()),
+                holdout_noise,
+            )
+        })
         .map(|(e, _)| *e)
         .next();
 
@@ -173,7 +228,9 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
             let f = data.score(fit_from(&data.train, &quiet, &s, Some(&p1))?)?;
             let cand = Candidate::of(&f.fit, f.holdout_rmse, effect.params().len());
             if significant(&reference1, &cand, holdout_noise)
-                && best.as_ref().is_none_or(|(_, b)| f.holdout_rmse < b.holdout_rmse)
+                && best
+                    .as_ref()
+                    .is_none_or(|(_, b)| f.holdout_rmse < b.holdout_rmse)
             {
                 best = Some((*effect, f));
             }
@@ -181,13 +238,23 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         second = best;
     }
 
-    let report = build_report(&data, &baseline, &scored, first, second.as_ref(), where_, holdout_noise);
+    let report = build_report(
+        &data,
+        &baseline,
+        &scored,
+        first,
+        second.as_ref(),
+        where_,
+        holdout_noise,
+    );
     print!("{}", text_summary(&report));
     if let Some(path) = &a.json {
         write_json(path, &report)?;
     }
     if let Some(path) = &a.plot {
-        let chosen = first.and_then(|e| scored.iter().find(|(x, _)| *x == e)).map(|(_, s)| &s.fit.result.params);
+        let chosen = first
+            .and_then(|e| scored.iter().find(|(x, _)| *x == e))
+            .map(|(_, s)| &s.fit.result.params);
         plot(path, &data, &base_params, chosen, &report)?;
     }
     Ok(())
@@ -197,12 +264,16 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
 fn baseline_traces(data: &Data, p: &ModelParams) -> Result<Vec<Trace>> {
     let mut out = Vec::new();
     for (set, recs) in [("train", &data.train), ("holdout", &data.holdout)] {
-        let borrowed: Vec<Record> = recs.iter().map(|r| r.as_record(data.with_current)).collect();
+        let borrowed: Vec<Record> = recs
+            .iter()
+            .map(|r| r.as_record(data.with_current))
+            .collect();
         let obj = Objective::new(&borrowed).map_err(|e| anyhow!("{e}"))?;
         for (k, r) in recs.iter().enumerate() {
             let mut w = vec![0.0; r.len()];
             let mut i = vec![0.0; r.len()];
-            obj.simulate(p, k, &mut w, &mut i).map_err(|e| anyhow!("{e}"))?;
+            obj.simulate(p, k, &mut w, &mut i)
+                .map_err(|e| anyhow!("{e}"))?;
             let current = r.current.clone().unwrap_or(i);
             out.push(Trace {
                 name: r.name(),
@@ -227,7 +298,14 @@ fn motor_shift(base: &ModelParams, after: &ModelParams) -> Value {
 
 fn effect_std(s: &Scored, effect: Effect) -> Value {
     let mut m = Map::new();
-    for c in s.fit.result.identifiability.params.iter().filter(|c| effect.params().contains(&c.id)) {
+    for c in s
+        .fit
+        .result
+        .identifiability
+        .params
+        .iter()
+        .filter(|c| effect.params().contains(&c.id))
+    {
         m.insert(c.id.name().into(), c.std.map_or(Value::Null, num));
     }
     Value::Object(m)
@@ -267,7 +345,11 @@ fn build_report(
     let chosen = first.and_then(|e| scored.iter().find(|(x, _)| *x == e));
     let after = chosen.map_or(baseline.holdout_rmse, |(_, s)| s.holdout_rmse);
     let removed = {
-        let (b2, a2, n2) = (baseline.holdout_rmse.powi(2), after.powi(2), holdout_noise.powi(2));
+        let (b2, a2, n2) = (
+            baseline.holdout_rmse.powi(2),
+            after.powi(2),
+            holdout_noise.powi(2),
+        );
         let excess = (b2 - n2).max(f32::MIN_POSITIVE);
         ((b2 - a2) / excess).clamp(0.0, 1.0)
     };
@@ -316,10 +398,21 @@ fn build_report(
 }
 
 /// Conclusions the data cannot support (identifiability).
-fn cannot_support(data: &Data, baseline: &Scored, chosen: Option<&(Effect, Scored)>) -> Vec<String> {
+fn cannot_support(
+    data: &Data,
+    baseline: &Scored,
+    chosen: Option<&(Effect, Scored)>,
+) -> Vec<String> {
     let mut out = Vec::new();
     let unpinned = |s: &Scored| -> Vec<&'static str> {
-        s.fit.result.identifiability.params.iter().filter(|c| !c.pinned).map(|c| c.id.name()).collect()
+        s.fit
+            .result
+            .identifiability
+            .params
+            .iter()
+            .filter(|c| !c.pinned)
+            .map(|c| c.id.name())
+            .collect()
     };
     let base = unpinned(baseline);
     if !base.is_empty() {
@@ -336,9 +429,16 @@ fn cannot_support(data: &Data, baseline: &Scored, chosen: Option<&(Effect, Score
         );
     }
     if let Some((e, s)) = chosen {
-        let not: Vec<&str> = unpinned(s).into_iter().filter(|n| e.params().iter().any(|p| p.name() == *n)).collect();
+        let not: Vec<&str> = unpinned(s)
+            .into_iter()
+            .filter(|n| e.params().iter().any(|p| p.name() == *n))
+            .collect();
         if !not.is_empty() {
-            out.push(format!("{} improves the fit, but its parameter(s) {} are not pinned", e.name(), not.join(", ")));
+            out.push(format!(
+                "{} improves the fit, but its parameter(s) {} are not pinned",
+                e.name(),
+                not.join(", ")
+            ));
         }
     }
     out
@@ -364,7 +464,11 @@ fn text_summary(r: &Value) -> String {
             e["name"].as_str().unwrap_or(""),
             f(&e["train_rmse"]),
             f(&e["holdout_rmse"]),
-            if e["significant"] == true { "  significant" } else { "" }
+            if e["significant"] == true {
+                "  significant"
+            } else {
+                ""
+            }
         );
     }
     let v = &r["verdict"];
@@ -384,7 +488,8 @@ fn text_summary(r: &Value) -> String {
                 );
             }
         }
-        None => s += "verdict: null (no effect of the catalogue improves the held-out fit significantly)\n",
+        None => s +=
+            "verdict: null (no effect of the catalogue improves the held-out fit significantly)\n",
     }
     for c in r["cannot_support"].as_array().into_iter().flatten() {
         s += &format!("note: {}\n", c.as_str().unwrap_or(""));
@@ -392,16 +497,29 @@ fn text_summary(r: &Value) -> String {
     s
 }
 
-fn plot(path: &std::path::Path, data: &Data, base: &ModelParams, chosen: Option<&ModelParams>, report: &Value) -> Result<()> {
-    let recs: Vec<Record> = data.holdout.iter().map(|r| r.as_record(data.with_current)).collect();
+fn plot(
+    path: &std::path::Path,
+    data: &Data,
+    base: &ModelParams,
+    chosen: Option<&ModelParams>,
+    report: &Value,
+) -> Result<()> {
+    let recs: Vec<Record> = data
+        .holdout
+        .iter()
+        .map(|r| r.as_record(data.with_current))
+        .collect();
     let obj = Objective::new(&recs).map_err(|e| anyhow!("{e}"))?;
-    let (mut t, mut meas, mut wb, mut we, mut rb, mut re) = (vec![], vec![], vec![], vec![], vec![], vec![]);
+    let (mut t, mut meas, mut wb, mut we, mut rb, mut re) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
     let mut offset = 0.0;
     for (k, r) in data.holdout.iter().enumerate() {
         let n = r.len();
         let (mut b, mut e, mut i) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        obj.simulate(base, k, &mut b, &mut i).map_err(|e| anyhow!("{e}"))?;
-        obj.simulate(chosen.unwrap_or(base), k, &mut e, &mut i).map_err(|e| anyhow!("{e}"))?;
+        obj.simulate(base, k, &mut b, &mut i)
+            .map_err(|e| anyhow!("{e}"))?;
+        obj.simulate(chosen.unwrap_or(base), k, &mut e, &mut i)
+            .map_err(|e| anyhow!("{e}"))?;
         for s in 0..n {
             t.push(offset + s as f64 * r.dt as f64);
             meas.push(r.omega[s]);
@@ -412,22 +530,53 @@ fn plot(path: &std::path::Path, data: &Data, base: &ModelParams, chosen: Option<
         }
         offset += n as f64 * r.dt as f64;
     }
-    let regimes = report["where"]["regimes"].as_array().cloned().unwrap_or_default();
+    let regimes = report["where"]["regimes"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
     let idx: Vec<f64> = (0..regimes.len()).map(|k| k as f64).collect();
-    let share: Vec<f32> = regimes.iter().map(|r| r["share_of_misfit"].as_f64().unwrap_or(0.0) as f32).collect();
-    let samples: Vec<f32> = regimes.iter().map(|r| r["share_of_samples"].as_f64().unwrap_or(0.0) as f32).collect();
-    let label = report["verdict"]["effect"].as_str().unwrap_or("no effect").to_string();
+    let share: Vec<f32> = regimes
+        .iter()
+        .map(|r| r["share_of_misfit"].as_f64().unwrap_or(0.0) as f32)
+        .collect();
+    let samples: Vec<f32> = regimes
+        .iter()
+        .map(|r| r["share_of_samples"].as_f64().unwrap_or(0.0) as f32)
+        .collect();
+    let label = report["verdict"]["effect"]
+        .as_str()
+        .unwrap_or("no effect")
+        .to_string();
     let green = RGBColor(0, 140, 0);
-    let names: Vec<String> = regimes.iter().enumerate().map(|(k, r)| format!("{k}: {}", r["name"].as_str().unwrap_or(""))).collect();
+    let names: Vec<String> = regimes
+        .iter()
+        .enumerate()
+        .map(|(k, r)| format!("{k}: {}", r["name"].as_str().unwrap_or("")))
+        .collect();
     let panels = [
         Panel {
             title: "held-out speed: measured, baseline, with the verdict's effect".into(),
             x_label: "t [s] (held-out records side by side)",
             y_label: "omega [rad/s]",
             series: vec![
-                Series { label: "measured", x: &t, y: &meas, color: BLUE },
-                Series { label: "baseline", x: &t, y: &wb, color: RED },
-                Series { label: &label, x: &t, y: &we, color: green },
+                Series {
+                    label: "measured",
+                    x: &t,
+                    y: &meas,
+                    color: BLUE,
+                },
+                Series {
+                    label: "baseline",
+                    x: &t,
+                    y: &wb,
+                    color: RED,
+                },
+                Series {
+                    label: &label,
+                    x: &t,
+                    y: &we,
+                    color: green,
+                },
             ],
             log_y: false,
         },
@@ -436,18 +585,41 @@ fn plot(path: &std::path::Path, data: &Data, base: &ModelParams, chosen: Option<
             x_label: "t [s]",
             y_label: "omega error [rad/s]",
             series: vec![
-                Series { label: "baseline", x: &t, y: &rb, color: RED },
-                Series { label: &label, x: &t, y: &re, color: green },
+                Series {
+                    label: "baseline",
+                    x: &t,
+                    y: &rb,
+                    color: RED,
+                },
+                Series {
+                    label: &label,
+                    x: &t,
+                    y: &re,
+                    color: green,
+                },
             ],
             log_y: false,
         },
         Panel {
-            title: format!("baseline misfit by regime (x = regime index; {})", names.join("; ")),
+            title: format!(
+                "baseline misfit by regime (x = regime index; {})",
+                names.join("; ")
+            ),
             x_label: "regime",
             y_label: "share",
             series: vec![
-                Series { label: "share of misfit", x: &idx, y: &share, color: RED },
-                Series { label: "share of samples", x: &idx, y: &samples, color: BLUE },
+                Series {
+                    label: "share of misfit",
+                    x: &idx,
+                    y: &share,
+                    color: RED,
+                },
+                Series {
+                    label: "share of samples",
+                    x: &idx,
+                    y: &samples,
+                    color: BLUE,
+                },
             ],
             log_y: false,
         },

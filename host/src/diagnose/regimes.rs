@@ -37,17 +37,50 @@ struct Sample {
 }
 
 const REGIMES: [Regime; 11] = [
-    Regime { name: "transients (start-up and speed changes)", member: |s| s.accel.abs() > 0.1 * s.accel_max },
-    Regime { name: "steady state", member: |s| s.accel.abs() <= 0.1 * s.accel_max },
-    Regime { name: "acceleration", member: |s| s.accel * s.omega.signum() > 0.1 * s.accel_max },
-    Regime { name: "deceleration", member: |s| s.accel * s.omega.signum() < -0.1 * s.accel_max },
-    Regime { name: "low speed (< 30 % of max)", member: |s| s.omega.abs() < 0.3 * s.omega_max },
-    Regime { name: "high speed (>= 30 % of max)", member: |s| s.omega.abs() >= 0.3 * s.omega_max },
-    Regime { name: "forward rotation", member: |s| s.omega > 0.05 * s.omega_max },
-    Regime { name: "reverse rotation", member: |s| s.omega < -0.05 * s.omega_max },
-    Regime { name: "near standstill", member: |s| s.omega.abs() <= 0.05 * s.omega_max },
-    Regime { name: "positive current", member: |s| s.current > 0.05 * s.current_max },
-    Regime { name: "negative current", member: |s| s.current < -0.05 * s.current_max },
+    Regime {
+        name: "transients (start-up and speed changes)",
+        member: |s| s.accel.abs() > 0.1 * s.accel_max,
+    },
+    Regime {
+        name: "steady state",
+        member: |s| s.accel.abs() <= 0.1 * s.accel_max,
+    },
+    Regime {
+        name: "acceleration",
+        member: |s| s.accel * s.omega.signum() > 0.1 * s.accel_max,
+    },
+    Regime {
+        name: "deceleration",
+        member: |s| s.accel * s.omega.signum() < -0.1 * s.accel_max,
+    },
+    Regime {
+        name: "low speed (< 30 % of max)",
+        member: |s| s.omega.abs() < 0.3 * s.omega_max,
+    },
+    Regime {
+        name: "high speed (>= 30 % of max)",
+        member: |s| s.omega.abs() >= 0.3 * s.omega_max,
+    },
+    Regime {
+        name: "forward rotation",
+        member: |s| s.omega > 0.05 * s.omega_max,
+    },
+    Regime {
+        name: "reverse rotation",
+        member: |s| s.omega < -0.05 * s.omega_max,
+    },
+    Regime {
+        name: "near standstill",
+        member: |s| s.omega.abs() <= 0.05 * s.omega_max,
+    },
+    Regime {
+        name: "positive current",
+        member: |s| s.current > 0.05 * s.current_max,
+    },
+    Regime {
+        name: "negative current",
+        member: |s| s.current < -0.05 * s.current_max,
+    },
 ];
 
 fn peak(x: &[f32]) -> f32 {
@@ -141,6 +174,7 @@ pub fn order_peak(traces: &[Trace]) -> (u32, f64) {
 }
 
 /// The `where` report.
+#[allow(clippy::needless_range_loop)] // one index over five parallel per-sample series
 pub fn analyse(traces: &[Trace], noise: f32) -> Value {
     let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
     let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
@@ -209,13 +243,22 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
             "share_of_samples": round(sample_share),
             "rmse": round(rmse),
         }));
-        ranked.push((share / sample_share, format!(
-            "{:.0} % of the misfit lies in {} ({:.0} % of the samples, rmse {:.3} rad/s)",
-            100.0 * share, reg.name, 100.0 * sample_share, rmse
-        )));
+        ranked.push((
+            share / sample_share,
+            format!(
+                "{:.0} % of the misfit lies in {} ({:.0} % of the samples, rmse {:.3} rad/s)",
+                100.0 * share,
+                reg.name,
+                100.0 * sample_share,
+                rmse
+            ),
+        ));
     }
     regimes.sort_by(|a, b| {
-        let c = |v: &Value| v["share_of_misfit"].as_f64().unwrap_or(0.0) / v["share_of_samples"].as_f64().unwrap_or(1.0);
+        let c = |v: &Value| {
+            v["share_of_misfit"].as_f64().unwrap_or(0.0)
+                / v["share_of_samples"].as_f64().unwrap_or(1.0)
+        };
         c(b).total_cmp(&c(a))
     });
     ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -234,7 +277,10 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
         .zip(&sig)
         .map(|((name, effect), s)| {
             let c = correlation(&res_all, s);
-            (c.abs(), json!({ "signature": name, "points_to": effect, "correlation": round(c) }))
+            (
+                c.abs(),
+                json!({ "signature": name, "points_to": effect, "correlation": round(c) }),
+            )
         })
         .collect();
     signatures.sort_by(|a, b| b.0.total_cmp(&a.0));

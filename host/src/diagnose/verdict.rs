@@ -42,7 +42,8 @@ impl Candidate {
 /// True when `candidate` is a real improvement over `reference` (module doc).
 pub fn significant(reference: &Candidate, candidate: &Candidate, holdout_noise: f32) -> bool {
     let n = reference.residuals.max(1) as f64;
-    let bic = n * (candidate.sse.max(f64::MIN_POSITIVE) / reference.sse.max(f64::MIN_POSITIVE)).ln()
+    let bic = n
+        * (candidate.sse.max(f64::MIN_POSITIVE) / reference.sse.max(f64::MIN_POSITIVE)).ln()
         + candidate.added_params as f64 * n.ln();
     let (before, after) = (reference.holdout_rmse, candidate.holdout_rmse);
     let excess = (before * before - holdout_noise * holdout_noise).max(0.0);
@@ -56,14 +57,23 @@ mod tests {
     use super::*;
 
     fn cand(sse: f64, holdout: f32, k: usize) -> Candidate {
-        Candidate { sse, residuals: 2000, holdout_rmse: holdout, added_params: k }
+        Candidate {
+            sse,
+            residuals: 2000,
+            holdout_rmse: holdout,
+            added_params: k,
+        }
     }
 
     #[test]
     fn noise_fitting_is_refused_and_a_real_effect_accepted() {
         let base = cand(2000.0 * 0.25, 0.5, 0);
         // One parameter that lowers SSE by 2 sigma^2 (noise fitting): BIC rises.
-        assert!(!significant(&base, &cand(2000.0 * 0.25 - 0.5, 0.499, 1), 0.5));
+        assert!(!significant(
+            &base,
+            &cand(2000.0 * 0.25 - 0.5, 0.499, 1),
+            0.5
+        ));
         // Train much better but held-out not: refused.
         assert!(!significant(&base, &cand(400.0, 0.499, 1), 0.45));
         // Both much better: accepted.
