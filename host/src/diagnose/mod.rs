@@ -182,7 +182,8 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let holdout_noise = data.holdout_noise()?;
     let traces = baseline_traces(&data, &base_params)?;
     let where_ = regimes::analyse(&traces, noise);
-    let order = regimes::order_peak(&traces).0;
+    let ripple = regimes::order_peak(&traces);
+    let order = ripple.order;
     let scales = data.scales(&base_params);
 
     // Which: every effect of the catalogue, refitted on the training records.
@@ -195,7 +196,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
             Effect::ALL.len()
         ));
         let s = with_effect(&spec, *effect, &base_params, &scales, order)?;
-        let f = fit_from(&data.train, &quiet, &s, Some(&base_params))?;
+        let f = fit_effect(&data, &quiet, &s, *effect, &ripple)?;
         scored.push((*effect, data.score(f)?));
     }
     scored.sort_by(|a, b| a.1.holdout_rmse.total_cmp(&b.1.holdout_rmse));
@@ -225,7 +226,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         for effect in Effect::ALL.iter().filter(|e| **e != e1) {
             say(format!("fitting {} on top of {}", effect.name(), e1.name()));
             let s = with_effect(&spec1, *effect, &p1, &scales, order)?;
-            let f = data.score(fit_from(&data.train, &quiet, &s, Some(&p1))?)?;
+            let f = data.score(fit_effect(&data, &quiet, &s, *effect, &ripple)?)?;
             let cand = Candidate::of(&f.fit, f.holdout_rmse, effect.params().len());
             if significant(&reference1, &cand, holdout_noise)
                 && best
@@ -258,6 +259,35 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         plot(path, &data, &base_params, chosen, &report)?;
     }
     Ok(())
+}
+
+/// Fit `spec` (an effect added to the model in `spec.base`) in two stages: the effect's
+/// parameters alone with everything else held at `base` (a search of one to three
+/// dimensions, started for the ripple from the order spectrum's amplitude and phase), then
+/// everything free from there.
+fn fit_effect(
+    data: &Data,
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    effect: Effect,
+    ripple: &regimes::OrderPeak,
+) -> Result<Fit> {
+    // The spec's base holds the model to add the effect to, and the effect's fixed values.
+    let mut start = spec.base;
+    if effect == Effect::TachoRipple {
+        let (lo, hi) = spec.bounds[ParamId::RippleAmp.index()];
+        start.set(ParamId::RippleAmp, (ripple.amp as f32).clamp(lo, hi));
+        start.set(ParamId::RipplePhase, ripple.phase as f32);
+    }
+    let mut alone = *spec;
+    alone.base = start;
+    for id in ParamId::ALL {
+        if !effect.params().contains(&id) && alone.free[id.index()] {
+            alone.free[id.index()] = false;
+        }
+    }
+    let first = fit_from(&data.train, opts, &alone, Some(&start))?;
+    fit_from(&data.train, opts, spec, Some(&first.result.params))
 }
 
 /// Baseline residual traces of every record (train and holdout).

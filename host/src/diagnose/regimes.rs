@@ -122,10 +122,30 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
-/// Order spectrum of the relative residual `r / omega` against rotor angle: the strongest
-/// order in 1..=64 cycles per revolution, and the share of the residual's energy it holds.
-pub fn order_peak(traces: &[Trace]) -> (u32, f64) {
-    let mut best = (1u32, 0.0f64);
+/// The strongest ripple of the residual against rotor angle.
+#[derive(Clone, Copy, Debug)]
+pub struct OrderPeak {
+    /// Cycles per revolution.
+    pub order: u32,
+    /// Share of the residual's energy it explains.
+    pub share: f64,
+    /// Relative amplitude of `w * amp * sin(order * theta + phase)`.
+    pub amp: f64,
+    /// Phase [rad], in [0, 2 pi).
+    pub phase: f64,
+}
+
+/// Order spectrum of the residual against rotor angle (integrated baseline speed): for each
+/// order in 1..=64 cycles per revolution, the least-squares fit of
+/// `r = w (a sin + b cos)(order theta)` (the tacho ripple's signature); the order that
+/// explains most of the residual's energy.
+pub fn order_peak(traces: &[Trace]) -> OrderPeak {
+    let mut best = OrderPeak {
+        order: 1,
+        share: 0.0,
+        amp: 0.0,
+        phase: 0.0,
+    };
     let mut total = 0.0f64;
     let mut used = 0usize;
     // Samples turning faster than 10 % of the top speed, their angle and relative residual.
@@ -166,8 +186,15 @@ pub fn order_peak(traces: &[Trace]) -> (u32, f64) {
         let b = (rc * ss - rs * sc) / det;
         let explained = a * rs + b * rc;
         let share = explained / total;
-        if share > best.1 {
-            best = (order, share);
+        if share > best.share {
+            // a sin + b cos = amp sin(x + phase) with a = amp cos(phase), b = amp sin(phase).
+            let phase = b.atan2(a).rem_euclid(std::f64::consts::TAU);
+            best = OrderPeak {
+                order,
+                share,
+                amp: a.hypot(b),
+                phase,
+            };
         }
     }
     best
@@ -284,7 +311,7 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
         })
         .collect();
     signatures.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let (order, share) = order_peak(traces);
+    let OrderPeak { order, share, .. } = order_peak(traces);
     let mut summary: Vec<String> = ranked
         .iter()
         .filter(|(ratio, _)| *ratio > 1.3)
