@@ -458,6 +458,15 @@ fn cannot_support(
                 .into(),
         );
     }
+    let has_load = |recs: &[OwnedRecord]| recs.iter().any(|r| r.load.is_some());
+    if !data.with_current && has_load(&data.holdout) && !has_load(&data.train) && !base.is_empty() {
+        out.push(
+            "the held-out records have a known load torque, whose effect on speed the training \
+             records (speed only, voltage only) do not pin: their RMSE judges the unpinned \
+             parameters as much as any effect"
+                .into(),
+        );
+    }
     if let Some((e, s)) = chosen {
         let not: Vec<&str> = unpinned(s)
             .into_iter()
