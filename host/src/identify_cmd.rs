@@ -182,6 +182,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
                 },
             ],
             log_y: false,
+            categories: None,
         },
         Panel {
             title: "residual (measured - fitted)".into(),
@@ -194,6 +195,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
                 color: green,
             }],
             log_y: false,
+            categories: None,
         },
         Panel {
             title: "convergence (seed Fig. 10)".into(),
@@ -206,6 +208,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
                 color: BLUE,
             }],
             log_y: true,
+            categories: None,
         },
     ];
     draw(path, &panels)

@@ -46,6 +46,9 @@ pub struct Panel<'a> {
     pub series: Vec<Series<'a>>,
     /// Logarithmic y axis.
     pub log_y: bool,
+    /// Draw the series as grouped bars over these category labels (series `x` ignored)
+    /// instead of lines.
+    pub categories: Option<Vec<String>>,
 }
 
 fn decimated(s: &Series) -> Vec<(f64, f64)> {
@@ -86,6 +89,10 @@ pub fn draw(path: &Path, panels: &[Panel]) -> Result<()> {
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let areas = root.split_evenly((panels.len(), 1));
     for (panel, area) in panels.iter().zip(areas.iter()) {
+        if let Some(labels) = &panel.categories {
+            draw_bars(area, panel, labels).map_err(|e| err(&e))?;
+            continue;
+        }
         let points: Vec<Vec<(f64, f64)>> = panel.series.iter().map(decimated).collect();
         let (x0, x1) = range(points.iter().flatten().map(|p| p.0), false);
         let (y0, y1) = range(points.iter().flatten().map(|p| p.1), panel.log_y);
@@ -133,5 +140,64 @@ pub fn draw(path: &Path, panels: &[Panel]) -> Result<()> {
         }
     }
     root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// Grouped bars: one group per category, one bar per series.
+fn draw_bars(
+    area: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+    panel: &Panel,
+    labels: &[String],
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let n = labels.len();
+    let top = panel
+        .series
+        .iter()
+        .flat_map(|s| s.y.iter())
+        .fold(0.0f64, |m, y| m.max(*y as f64))
+        .max(1e-9)
+        * 1.1;
+    let mut chart = ChartBuilder::on(area)
+        .caption(&panel.title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), 0.0f64..top)?;
+    chart
+        .configure_mesh()
+        .x_labels(n)
+        .x_label_formatter(&|x| {
+            let k = x.round();
+            if (x - k).abs() < 1e-6 && k >= 0.0 {
+                labels.get(k as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        })
+        .y_desc(panel.y_label)
+        .label_style(("sans-serif", 12))
+        .disable_x_mesh()
+        .draw()?;
+    let groups = panel.series.len().max(1) as f64;
+    let width = 0.8 / groups;
+    for (g, s) in panel.series.iter().enumerate() {
+        let color = s.color;
+        let left = |k: usize| k as f64 - 0.4 + g as f64 * width;
+        chart
+            .draw_series(s.y.iter().enumerate().map(|(k, y)| {
+                Rectangle::new(
+                    [(left(k), 0.0), (left(k) + width, *y as f64)],
+                    color.filled(),
+                )
+            }))?
+            .label(s.label)
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()?;
     Ok(())
 }

@@ -106,8 +106,11 @@ fn verdict(r: &Value) -> Option<&str> {
     r["verdict"]["effect"].as_str()
 }
 
+/// One diagnosis to run, returning what to check.
+type Case<T> = Box<dyn FnOnce() -> T + Send>;
+
 /// Run cases two at a time (the machine has two cores).
-fn in_parallel<T: Send>(cases: Vec<Box<dyn FnOnce() -> T + Send>>) -> Vec<T> {
+fn in_parallel<T: Send>(cases: Vec<Case<T>>) -> Vec<T> {
     let mut out = Vec::new();
     let mut cases = cases.into_iter();
     loop {
@@ -124,7 +127,7 @@ fn in_parallel<T: Send>(cases: Vec<Box<dyn FnOnce() -> T + Send>>) -> Vec<T> {
 
 #[test]
 fn each_effect_is_named_on_two_motors_with_held_out_regimes() {
-    let mut cases: Vec<Box<dyn FnOnce() -> (String, String, Value) + Send>> = Vec::new();
+    let mut cases: Vec<Case<(String, String, Value)>> = Vec::new();
     for motor in [&SEED, &SMALL] {
         for effect in motor.effects {
             cases.push(Box::new(move || {
@@ -184,7 +187,7 @@ fn each_effect_is_named_on_two_motors_with_held_out_regimes() {
 
 #[test]
 fn records_without_an_effect_get_a_null_verdict() {
-    let mut cases: Vec<Box<dyn FnOnce() -> (u64, Value) + Send>> = Vec::new();
+    let mut cases: Vec<Case<(u64, Value)>> = Vec::new();
     for seed in [1u64, 2] {
         cases.push(Box::new(move || (seed, diagnose(&SEED, None, false, seed))));
         cases.push(Box::new(move || {

@@ -573,7 +573,10 @@ fn plot(
         .as_array()
         .cloned()
         .unwrap_or_default();
-    let idx: Vec<f64> = (0..regimes.len()).map(|k| k as f64).collect();
+    let labels: Vec<String> = regimes
+        .iter()
+        .map(|r| r["short"].as_str().unwrap_or("").to_string())
+        .collect();
     let share: Vec<f32> = regimes
         .iter()
         .map(|r| r["share_of_misfit"].as_f64().unwrap_or(0.0) as f32)
@@ -587,11 +590,6 @@ fn plot(
         .unwrap_or("no effect")
         .to_string();
     let green = RGBColor(0, 140, 0);
-    let names: Vec<String> = regimes
-        .iter()
-        .enumerate()
-        .map(|(k, r)| format!("{k}: {}", r["name"].as_str().unwrap_or("")))
-        .collect();
     let panels = [
         Panel {
             title: "held-out speed: measured, baseline, with the verdict's effect".into(),
@@ -618,6 +616,7 @@ fn plot(
                 },
             ],
             log_y: false,
+            categories: None,
         },
         Panel {
             title: "held-out residual before / after".into(),
@@ -638,29 +637,28 @@ fn plot(
                 },
             ],
             log_y: false,
+            categories: None,
         },
         Panel {
-            title: format!(
-                "baseline misfit by regime (x = regime index; {})",
-                names.join("; ")
-            ),
+            title: "baseline misfit by regime (train and held-out records)".into(),
             x_label: "regime",
             y_label: "share",
             series: vec![
                 Series {
                     label: "share of misfit",
-                    x: &idx,
+                    x: &[],
                     y: &share,
                     color: RED,
                 },
                 Series {
                     label: "share of samples",
-                    x: &idx,
+                    x: &[],
                     y: &samples,
                     color: BLUE,
                 },
             ],
             log_y: false,
+            categories: Some(labels),
         },
     ];
     if regimes.is_empty() {

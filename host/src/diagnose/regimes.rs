@@ -23,6 +23,7 @@ pub struct Trace {
 /// A class of samples.
 struct Regime {
     name: &'static str,
+    short: &'static str,
     member: fn(&Sample) -> bool,
 }
 
@@ -39,46 +40,57 @@ struct Sample {
 const REGIMES: [Regime; 11] = [
     Regime {
         name: "transients (start-up and speed changes)",
+        short: "transient",
         member: |s| s.accel.abs() > 0.1 * s.accel_max,
     },
     Regime {
         name: "steady state",
+        short: "steady",
         member: |s| s.accel.abs() <= 0.1 * s.accel_max,
     },
     Regime {
         name: "acceleration",
+        short: "accel.",
         member: |s| s.accel * s.omega.signum() > 0.1 * s.accel_max,
     },
     Regime {
         name: "deceleration",
+        short: "decel.",
         member: |s| s.accel * s.omega.signum() < -0.1 * s.accel_max,
     },
     Regime {
         name: "low speed (< 30 % of max)",
+        short: "low speed",
         member: |s| s.omega.abs() < 0.3 * s.omega_max,
     },
     Regime {
         name: "high speed (>= 30 % of max)",
+        short: "high speed",
         member: |s| s.omega.abs() >= 0.3 * s.omega_max,
     },
     Regime {
         name: "forward rotation",
+        short: "forward",
         member: |s| s.omega > 0.05 * s.omega_max,
     },
     Regime {
         name: "reverse rotation",
+        short: "reverse",
         member: |s| s.omega < -0.05 * s.omega_max,
     },
     Regime {
         name: "near standstill",
+        short: "standstill",
         member: |s| s.omega.abs() <= 0.05 * s.omega_max,
     },
     Regime {
         name: "positive current",
+        short: "i > 0",
         member: |s| s.current > 0.05 * s.current_max,
     },
     Regime {
         name: "negative current",
+        short: "i < 0",
         member: |s| s.current < -0.05 * s.current_max,
     },
 ];
@@ -266,6 +278,7 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
         let rmse = (regime_sse[i] / regime_n[i] as f64).sqrt();
         regimes.push(json!({
             "name": reg.name,
+            "short": reg.short,
             "share_of_misfit": round(share),
             "share_of_samples": round(sample_share),
             "rmse": round(rmse),
