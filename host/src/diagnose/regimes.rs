@@ -312,13 +312,15 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
             })
         })
         .collect();
+    // Ranked by correlation with its sign: a signature points at its effect only when the
+    // residual follows it (a negative correlation is the opposite of that effect).
     let mut signatures: Vec<(f64, Value)> = names
         .iter()
         .zip(&sig)
         .map(|((name, effect), s)| {
             let c = correlation(&res_all, s);
             (
-                c.abs(),
+                c,
                 json!({ "signature": name, "points_to": effect, "correlation": round(c) }),
             )
         })
