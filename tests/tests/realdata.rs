@@ -38,3 +38,39 @@ fn lab_motor_kv_and_inertia_agree_with_the_lab_and_the_misfit_is_flagged() {
         r["fit_quality"]
     );
 }
+
+#[test]
+fn lab_motor_diagnosis_finds_coulomb_friction_on_held_out_runs() {
+    let dir = realdata();
+    let out = tempfile::tempdir().unwrap();
+    let report = out.path().join("diag.json");
+    run_ok(&[
+        "diagnose",
+        "--train",
+        s(&dir.join("step_1.csv")),
+        s(&dir.join("ramp_1.csv")),
+        "--holdout",
+        s(&dir.join("step_2.csv")),
+        s(&dir.join("sine_1.csv")),
+        "--fix",
+        "ra=3.4,la=0.00285",
+        "--bounds",
+        "j=1e-7:1e-3,b=1e-8:1e-2,kv=1e-3:1",
+        "--json",
+        s(&report),
+        "-q",
+    ]);
+    let r = json(&report);
+    let v = &r["verdict"];
+    // The lab saw the motor start only at 0.7-1.8 V: static/Coulomb friction.
+    assert_eq!(v["effect"], "coulomb_friction", "{v}");
+    let (before, after) = (
+        v["holdout_rmse_before"].as_f64().unwrap(),
+        v["holdout_rmse_after"].as_f64().unwrap(),
+    );
+    assert!(after < 0.8 * before, "held-out {before} -> {after}");
+    // Friction torque below the stall torque at the breakaway voltage (Kv 1.8 V / Ra).
+    let tc = v["effect_params"]["tc"].as_f64().unwrap();
+    assert!(tc > 0.0 && tc < 0.05 * 1.8 / 3.4, "tc {tc}");
+    assert_eq!(r["data"]["current"], false);
+}
