@@ -3,7 +3,7 @@
 
 use crate::error::Error;
 use crate::params::{ModelParams, ParamId};
-use crate::sim::InitialState;
+use crate::sim::{sign, InitialState};
 
 /// Fewest samples a record may hold.
 pub const MIN_SAMPLES: usize = 8;
@@ -98,16 +98,6 @@ impl<'a> Record<'a> {
             _ => equilibrium,
         };
         InitialState { current, omega }
-    }
-}
-
-fn sign(x: f32) -> f32 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
-    } else {
-        0.0
     }
 }
 

@@ -70,7 +70,7 @@ pub struct Reading {
 }
 
 /// Sign of `x` with 0 for 0.
-fn sign(x: f32) -> f32 {
+pub(crate) fn sign(x: f32) -> f32 {
     if x > 0.0 {
         1.0
     } else if x < 0.0 {

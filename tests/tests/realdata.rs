@@ -3,6 +3,11 @@
 
 use motor_id_tests::{json, param, realdata, run_ok, s};
 
+/// Ra and La as measured by the lab, held fixed.
+const FIX: [&str; 2] = ["--fix", "ra=3.4,la=0.00285"];
+/// J, B and Kv are far below the seed's Table 1.
+const BOUNDS: [&str; 2] = ["--bounds", "j=1e-7:1e-3,b=1e-8:1e-2,kv=1e-3:1"];
+
 #[test]
 fn lab_motor_kv_and_inertia_agree_with_the_lab_and_the_misfit_is_flagged() {
     let dir = realdata();
@@ -12,10 +17,10 @@ fn lab_motor_kv_and_inertia_agree_with_the_lab_and_the_misfit_is_flagged() {
         "identify",
         s(&dir.join("step_1.csv")),
         s(&dir.join("ramp_1.csv")),
-        "--fix",
-        "ra=3.4,la=0.00285",
-        "--bounds",
-        "j=1e-7:1e-3,b=1e-8:1e-2,kv=1e-3:1",
+        FIX[0],
+        FIX[1],
+        BOUNDS[0],
+        BOUNDS[1],
         "--json",
         s(&report),
         "-q",
@@ -52,10 +57,10 @@ fn lab_motor_diagnosis_finds_coulomb_friction_on_held_out_runs() {
         "--holdout",
         s(&dir.join("step_2.csv")),
         s(&dir.join("sine_1.csv")),
-        "--fix",
-        "ra=3.4,la=0.00285",
-        "--bounds",
-        "j=1e-7:1e-3,b=1e-8:1e-2,kv=1e-3:1",
+        FIX[0],
+        FIX[1],
+        BOUNDS[0],
+        BOUNDS[1],
         "--json",
         s(&report),
         "-q",
