@@ -19,7 +19,7 @@ use plotters::style::{RGBColor, BLUE, RED};
 use regimes::Trace;
 use serde_json::{json, Map, Value};
 use std::path::PathBuf;
-use verdict::{significant, Candidate};
+use verdict::{significant, Candidate, Holdout};
 
 /// Arguments of `diagnose`.
 #[derive(Args, Debug)]
@@ -65,6 +65,17 @@ impl Data {
         obj.cost(p)
             .map(|c| c.rmse_omega)
             .ok_or_else(|| anyhow!("holdout records cannot be simulated with the fitted model"))
+    }
+
+    fn holdout_rms(&self) -> f32 {
+        let (sum, n) = self
+            .holdout
+            .iter()
+            .flat_map(|r| r.omega.iter())
+            .fold((0.0f64, 0usize), |(s, n), w| {
+                (s + (*w as f64) * (*w as f64), n + 1)
+            });
+        (sum / n.max(1) as f64).sqrt() as f32
     }
 
     fn holdout_noise(&self) -> Result<f32> {
@@ -180,6 +191,10 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let base_params = baseline.fit.result.params;
     let noise = baseline.fit.result.sigma_omega;
     let holdout_noise = data.holdout_noise()?;
+    let holdout = Holdout {
+        noise: holdout_noise,
+        signal_rms: data.holdout_rms(),
+    };
     let traces = baseline_traces(&data, &base_params)?;
     let where_ = regimes::analyse(&traces, noise);
     let ripple = regimes::order_peak(&traces);
@@ -203,13 +218,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let reference = Candidate::of(&baseline.fit, baseline.holdout_rmse, 0);
     let first = scored
         .iter()
-        .filter(|(e, s)| {
-            significant(
-                &reference,
-                &Candidate::of(&s.fit, s.holdout_rmse, e.params().len()),
-                holdout_noise,
-            )
-        })
+        .filter(|(e, s)| significant(&reference, &candidate(*e, s, &scales), &holdout))
         .map(|(e, _)| *e)
         .next();
 
@@ -227,8 +236,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
             say(format!("fitting {} on top of {}", effect.name(), e1.name()));
             let s = with_effect(&spec1, *effect, &p1, &scales, order)?;
             let f = data.score(fit_effect(&data, &quiet, &s, *effect, &ripple)?)?;
-            let cand = Candidate::of(&f.fit, f.holdout_rmse, effect.params().len());
-            if significant(&reference1, &cand, holdout_noise)
+            if significant(&reference1, &candidate(*effect, &f, &scales), &holdout)
                 && best
                     .as_ref()
                     .is_none_or(|(_, b)| f.holdout_rmse < b.holdout_rmse)
@@ -241,6 +249,8 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
 
     let report = build_report(
         &data,
+        &scales,
+        &holdout,
         &baseline,
         &scored,
         first,
@@ -288,6 +298,14 @@ fn fit_effect(
     }
     let first = fit_from(&data.train, opts, &alone, Some(&start))?;
     fit_from(&data.train, opts, spec, Some(&first.result.params))
+}
+
+/// The significance rule's view of an effect fit: a tacho delay under half a sample is below
+/// what the sampling resolves (see [`verdict`]).
+fn candidate(effect: Effect, s: &Scored, scales: &Scales) -> Candidate {
+    let too_short =
+        effect == Effect::SensorDelay && s.fit.result.params.get(ParamId::Td) < 0.5 * scales.dt;
+    Candidate::of(&s.fit, s.holdout_rmse, effect.params().len()).unresolvable(too_short)
 }
 
 /// Baseline residual traces of every record (train and holdout).
@@ -341,8 +359,11 @@ fn effect_std(s: &Scored, effect: Effect) -> Value {
     Value::Object(m)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn build_report(
     data: &Data,
+    scales: &Scales,
+    holdout: &Holdout,
     baseline: &Scored,
     scored: &[(Effect, Scored)],
     first: Option<Effect>,
@@ -366,8 +387,8 @@ fn build_report(
                 "effect_std": effect_std(s, *e),
                 "significant": first == Some(*e) || significant(
                     &Candidate::of(&baseline.fit, baseline.holdout_rmse, 0),
-                    &Candidate::of(&s.fit, s.holdout_rmse, e.params().len()),
-                    holdout_noise,
+                    &candidate(*e, s, scales),
+                    holdout,
                 ),
             })
         })

@@ -8,7 +8,11 @@
 //! - on the held-out records, which the fit never saw, the RMSE falls by at least 2 % and by
 //!   at least 10 % of the misfit above the measured noise (`rmse^2 - sigma^2`). Data without
 //!   an unmodelled effect is fitted to the noise by the baseline already, so no effect can
-//!   pass this, and the verdict is `null`.
+//!   pass this, and the verdict is `null`;
+//! - the held-out RMSE falls by at least 0.02 % of the held-out speed's RMS (noise-free records
+//!   have no noise to measure against; smaller changes are numerics, not physics);
+//! - the effect is not below the resolution of the sampling: a tacho delay under half a
+//!   sample is indistinguishable from a different convention of when readings are taken.
 
 use crate::identify_cmd::Fit;
 
@@ -19,12 +23,16 @@ const HOLDOUT_DROP: f32 = 0.02;
 /// Smallest share of the held-out misfit above noise that must go.
 const EXCESS_SHARE: f32 = 0.1;
 
+/// Smallest held-out RMSE drop relative to the held-out speed's RMS.
+const SIGNAL_DROP: f32 = 2e-4;
+
 /// What the rule needs of a fitted model.
 pub struct Candidate {
     sse: f64,
     residuals: usize,
     holdout_rmse: f32,
     added_params: usize,
+    resolvable: bool,
 }
 
 impl Candidate {
@@ -35,20 +43,39 @@ impl Candidate {
             residuals: fit.result.cost.residuals,
             holdout_rmse,
             added_params,
+            resolvable: true,
         }
+    }
+
+    /// Mark an effect whose size is below what the sampling resolves.
+    pub fn unresolvable(mut self, unresolvable: bool) -> Candidate {
+        self.resolvable &= !unresolvable;
+        self
     }
 }
 
+/// The held-out data's scales.
+#[derive(Clone, Copy, Debug)]
+pub struct Holdout {
+    /// Measured speed noise [rad/s].
+    pub noise: f32,
+    /// RMS of the measured speed [rad/s].
+    pub signal_rms: f32,
+}
+
 /// True when `candidate` is a real improvement over `reference` (module doc).
-pub fn significant(reference: &Candidate, candidate: &Candidate, holdout_noise: f32) -> bool {
+pub fn significant(reference: &Candidate, candidate: &Candidate, holdout: &Holdout) -> bool {
+    let holdout_noise = holdout.noise;
     let n = reference.residuals.max(1) as f64;
     let bic = n
         * (candidate.sse.max(f64::MIN_POSITIVE) / reference.sse.max(f64::MIN_POSITIVE)).ln()
         + candidate.added_params as f64 * n.ln();
     let (before, after) = (reference.holdout_rmse, candidate.holdout_rmse);
     let excess = (before * before - holdout_noise * holdout_noise).max(0.0);
-    bic < -BIC_DROP
+    candidate.resolvable
+        && bic < -BIC_DROP
         && after <= (1.0 - HOLDOUT_DROP) * before
+        && before - after >= SIGNAL_DROP * holdout.signal_rms
         && before * before - after * after >= EXCESS_SHARE * excess
 }
 
@@ -62,6 +89,14 @@ mod tests {
             residuals: 2000,
             holdout_rmse: holdout,
             added_params: k,
+            resolvable: true,
+        }
+    }
+
+    fn h(noise: f32) -> Holdout {
+        Holdout {
+            noise,
+            signal_rms: 100.0,
         }
     }
 
@@ -72,11 +107,27 @@ mod tests {
         assert!(!significant(
             &base,
             &cand(2000.0 * 0.25 - 0.5, 0.499, 1),
-            0.5
+            &h(0.5)
         ));
         // Train much better but held-out not: refused.
-        assert!(!significant(&base, &cand(400.0, 0.499, 1), 0.45));
-        // Both much better: accepted.
-        assert!(significant(&base, &cand(400.0, 0.46, 1), 0.45));
+        assert!(!significant(&base, &cand(400.0, 0.499, 1), &h(0.45)));
+        // Both much better: accepted, unless below the sampling's resolution.
+        assert!(significant(&base, &cand(400.0, 0.46, 1), &h(0.45)));
+        assert!(!significant(
+            &base,
+            &cand(400.0, 0.46, 1).unresolvable(true),
+            &h(0.45)
+        ));
+        // On noise-free data a 10 % drop of a tiny misfit is numerics, not an effect.
+        let clean = cand(2000.0 * 1e-6, 0.001, 0);
+        let tiny = cand(2000.0 * 0.5e-6, 0.0009, 1);
+        assert!(!significant(
+            &clean,
+            &tiny,
+            &Holdout {
+                noise: 1e-5,
+                signal_rms: 100.0
+            }
+        ));
     }
 }
