@@ -1,0 +1,145 @@
+//! Messages between the host and a drive board, defined once for both ends (postcard over
+//! the frames of [`crate::frame`]). A hello exchange carries [`PROTOCOL_VERSION`] so that a
+//! host and a firmware that disagree refuse politely instead of misreading each other.
+
+use serde::{Deserialize, Serialize};
+
+/// Bumped whenever a message changes shape.
+pub const PROTOCOL_VERSION: u16 = 1;
+
+/// Samples per [`HostMessage::RecordChunk`].
+pub const CHUNK: usize = 16;
+
+/// What the host asks.
+// No allocator on the board: a record chunk travels inline, so this enum is as large as it.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum HostMessage {
+    /// Open a session; the board answers [`BoardMessage::Hello`] or refuses.
+    Hello {
+        /// The host's [`PROTOCOL_VERSION`].
+        version: u16,
+    },
+    /// Announce a record to identify from: `samples` samples of step `dt` follow in chunks.
+    IdentifyBegin {
+        /// Sample step [s].
+        dt: f32,
+        /// Number of samples.
+        samples: u32,
+        /// Whether chunks carry current.
+        with_current: bool,
+        /// Random seed of the identification.
+        seed: u64,
+    },
+    /// Samples `offset..offset + v.len()` of the announced record.
+    RecordChunk {
+        /// Index of the first sample.
+        offset: u32,
+        /// Armature voltage [V].
+        v: heapless::Vec<f32, CHUNK>,
+        /// Speed [rad/s].
+        omega: heapless::Vec<f32, CHUNK>,
+        /// Current [A] (empty when the record has none).
+        current: heapless::Vec<f32, CHUNK>,
+    },
+    /// Run self-commissioning now (bounded experiment, identify, store).
+    Commission {
+        /// Random seed of the identification.
+        seed: u64,
+    },
+    /// Report the stored parameters.
+    ReadParams,
+    /// Erase the stored parameters (the board commissions again at next power-up).
+    ClearParams,
+    /// Stop the running identification or experiment.
+    Abort,
+}
+
+/// Stage of a long job, in progress reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum JobStage {
+    /// Running the commissioning experiment.
+    Experiment,
+    /// FFO iterations.
+    Search,
+    /// Least-squares iterations.
+    Refine,
+}
+
+/// An identified motor as the board reports and stores it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MotorReport {
+    /// Ra, La, J, B, Kv.
+    pub params: [f32; 5],
+    /// One standard deviation of each, NaN when not pinned.
+    pub std: [f32; 5],
+    /// Speed RMSE [rad/s].
+    pub rmse_omega: f32,
+    /// Model evaluations spent.
+    pub evaluations: u32,
+    /// Pinned directions.
+    pub rank: u8,
+}
+
+/// Why the board refused or failed a request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Refusal {
+    /// Protocol versions differ; the board's is given.
+    VersionMismatch {
+        /// The board's [`PROTOCOL_VERSION`].
+        board: u16,
+    },
+    /// A request came before the hello.
+    NoSession,
+    /// The record does not fit in the board's memory.
+    RecordTooLong {
+        /// Largest number of samples.
+        max: u32,
+    },
+    /// A chunk arrived out of order or outside the record.
+    BadChunk,
+    /// The record or the identification was invalid.
+    InvalidRecord,
+    /// A safety limit tripped during the experiment.
+    Trip,
+    /// Busy with another job.
+    Busy,
+}
+
+/// What the board answers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum BoardMessage {
+    /// Session open.
+    Hello {
+        /// The board's [`PROTOCOL_VERSION`].
+        version: u16,
+        /// Largest record it accepts.
+        max_samples: u32,
+    },
+    /// Request refused or failed.
+    Refused(Refusal),
+    /// Chunk received; the next expected offset.
+    ChunkOk {
+        /// Next sample index expected.
+        next: u32,
+    },
+    /// Progress of a long job.
+    Progress {
+        /// Stage.
+        stage: JobStage,
+        /// Iteration within it.
+        iteration: u32,
+        /// Evaluations so far.
+        evaluations: u32,
+        /// Best fitness so far.
+        best: f32,
+    },
+    /// Identification finished.
+    Identified(MotorReport),
+    /// Stored parameters, if any.
+    Params(Option<MotorReport>),
+    /// Stored parameters erased.
+    Cleared,
+    /// The job was stopped on request.
+    Aborted,
+}
