@@ -1,6 +1,6 @@
 //! Command-line interface (DESIGN.md contract).
 
-use crate::{diagnose, identify_cmd, simulate_cmd};
+use crate::{board_cmd, diagnose, identify_cmd, simulate_cmd};
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
@@ -23,6 +23,8 @@ enum Command {
     /// Locate the sim-to-real gap: where the model misfits, which unmodelled effect causes it,
     /// how far the misfit shrinks with it, judged on held-out records.
     Diagnose(diagnose::DiagnoseArgs),
+    /// Talk to a drive board (or its QEMU build) over a serial port.
+    Board(board_cmd::BoardArgs),
     /// Run the whole job on a built-in default: the seed's motor, simulated, identified from
     /// speed only (seed workflow) and from speed and current.
     Demo(identify_cmd::DemoArgs),
@@ -57,5 +59,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::ImportScope(a) => identify_cmd::import_scope(&a),
         Command::Demo(a) => identify_cmd::demo(&a),
         Command::Diagnose(a) => diagnose::run(&a),
+        Command::Board(a) => board_cmd::run(&a),
     }
 }

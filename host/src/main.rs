@@ -1,6 +1,7 @@
 //! `motor-id`: identify DC motor parameters (seed paper: FFO on the speed RMSE, Eq. 7) from
 //! recorded or simulated data, with an honest identifiability report.
 
+mod board_cmd;
 mod cli;
 mod csvio;
 mod diagnose;

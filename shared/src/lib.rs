@@ -26,6 +26,7 @@ pub mod protocol;
 pub mod record;
 pub mod refine;
 pub mod rng;
+pub mod service;
 pub mod sim;
 pub mod space;
 pub mod synth;

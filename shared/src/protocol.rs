@@ -28,8 +28,6 @@ pub enum HostMessage {
         samples: u32,
         /// Whether chunks carry current.
         with_current: bool,
-        /// Random seed of the identification.
-        seed: u64,
     },
     /// Samples `offset..offset + v.len()` of the announced record.
     RecordChunk {
@@ -41,6 +39,12 @@ pub enum HostMessage {
         omega: heapless::Vec<f32, CHUNK>,
         /// Current [A] (empty when the record has none).
         current: heapless::Vec<f32, CHUNK>,
+    },
+    /// Identify from the record streamed in (every chunk received); progress frames follow,
+    /// then [`BoardMessage::Identified`].
+    Identify {
+        /// Random seed of the identification.
+        seed: u64,
     },
     /// Run self-commissioning now (bounded experiment, identify, store).
     Commission {

@@ -1,0 +1,316 @@
+//! `motor-id board --port PORT <hello | identify F.csv | commission | params | clear>`: drive a
+//! board (or its QEMU build) over a serial port with the frames of `motor_id_shared::frame`.
+
+use crate::csvio::OwnedRecord;
+use crate::identify_cmd::write_json;
+use crate::progress::FitProgress;
+use crate::report::num;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, Subcommand};
+use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
+use motor_id_shared::identify::{Progress, Stage};
+use motor_id_shared::params::ParamId;
+use motor_id_shared::protocol::{
+    BoardMessage, HostMessage, JobStage, MotorReport, CHUNK, PROTOCOL_VERSION,
+};
+use serde_json::{json, Map, Value};
+use std::io::{Read, Write};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Arguments of `board`.
+#[derive(Args, Debug)]
+pub struct BoardArgs {
+    /// Serial port of the board (a pseudo-terminal for the QEMU build).
+    #[arg(long)]
+    pub port: String,
+    /// Baud rate.
+    #[arg(long, default_value_t = 115_200)]
+    pub baud: u32,
+    /// Seconds to wait for each reply (progress frames restart the clock).
+    #[arg(long, default_value_t = 10.0)]
+    pub timeout: f64,
+    /// Random seed of identifications.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the result as JSON (the `identify` report's fields) here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+    #[command(subcommand)]
+    pub action: BoardAction,
+}
+
+/// What to ask the board.
+#[derive(Subcommand, Debug)]
+pub enum BoardAction {
+    /// Open a session and show the board's protocol version.
+    Hello,
+    /// Stream a record to the board and identify it there.
+    Identify {
+        /// Record CSV (t, v, omega, optional i).
+        file: PathBuf,
+    },
+    /// Run self-commissioning (bounded experiment, identification, store).
+    Commission,
+    /// Show the stored parameters.
+    Params,
+    /// Erase the stored parameters.
+    Clear,
+}
+
+/// A serial connection speaking frames.
+struct Connection {
+    port: Box<dyn serialport::SerialPort>,
+    decoder: Decoder,
+    timeout: Duration,
+}
+
+impl Connection {
+    fn open(a: &BoardArgs) -> Result<Connection> {
+        let port = serialport::new(&a.port, a.baud)
+            .timeout(Duration::from_millis(20))
+            .open()
+            .with_context(|| format!("cannot open serial port {}", a.port))?;
+        if !(a.timeout.is_finite() && a.timeout > 0.0) {
+            bail!("--timeout must be a positive number of seconds");
+        }
+        Ok(Connection {
+            port,
+            decoder: Decoder::new(),
+            timeout: Duration::from_secs_f64(a.timeout),
+        })
+    }
+
+    fn send(&mut self, msg: &HostMessage) -> Result<()> {
+        let mut out = [0u8; MAX_FRAME];
+        let frame = encode(msg, &mut out).map_err(|e| anyhow!("{e}"))?;
+        self.port.write_all(frame).context("serial write failed")?;
+        self.port.flush().context("serial write failed")
+    }
+
+    /// The next message, or an error after the timeout.
+    fn receive(&mut self) -> Result<BoardMessage> {
+        let deadline = Instant::now() + self.timeout;
+        let mut buf = [0u8; 256];
+        loop {
+            match self.port.read(&mut buf) {
+                Ok(n) => {
+                    for b in &buf[..n] {
+                        // Corrupted frames are dropped; the request is repeated on timeout.
+                        if let Some(Ok(msg)) = self.decoder.push::<BoardMessage>(*b) {
+                            return Ok(msg);
+                        }
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) => return Err(anyhow!("serial read failed: {e}")),
+            }
+            if Instant::now() > deadline {
+                bail!(
+                    "no answer from the board within {:.1} s",
+                    self.timeout.as_secs_f64()
+                );
+            }
+        }
+    }
+
+    /// Send `msg` and wait for a reply that `accept` takes, repeating the request (up to three
+    /// times) when nothing comes back, as after a corrupted frame.
+    fn request<T>(
+        &mut self,
+        msg: &HostMessage,
+        mut accept: impl FnMut(BoardMessage) -> Option<Result<T>>,
+    ) -> Result<T> {
+        let mut last = None;
+        for _ in 0..3 {
+            self.send(msg)?;
+            loop {
+                match self.receive() {
+                    Ok(reply) => {
+                        if let Some(r) = accept(reply) {
+                            return r;
+                        }
+                    }
+                    Err(e) => {
+                        last = Some(e);
+                        break;
+                    }
+                }
+            }
+        }
+        Err(last.unwrap_or_else(|| anyhow!("no answer from the board")))
+    }
+}
+
+fn refused(reply: &BoardMessage) -> Option<Result<()>> {
+    match reply {
+        BoardMessage::Refused(r) => Some(Err(anyhow!("the board refused: {r:?}"))),
+        _ => None,
+    }
+}
+
+fn hello(c: &mut Connection) -> Result<u32> {
+    c.request(&HostMessage::Hello { version: PROTOCOL_VERSION }, |reply| match reply {
+        BoardMessage::Hello { version, max_samples } if version == PROTOCOL_VERSION => Some(Ok(max_samples)),
+        BoardMessage::Refused(motor_id_shared::protocol::Refusal::VersionMismatch { board }) => Some(Err(anyhow!(
+            "protocol mismatch: this host speaks version {PROTOCOL_VERSION}, the board {board}; update one of them"
+        ))),
+        other => refused(&other).map(|r| r.map(|_| 0)),
+    })
+}
+
+/// Wait for the end of a long job, showing its progress.
+fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
+    let bar = FitProgress::new(quiet);
+    let out = loop {
+        match c.receive() {
+            Ok(BoardMessage::Progress {
+                stage,
+                iteration,
+                evaluations,
+                best,
+            }) => {
+                let stage = match stage {
+                    JobStage::Search | JobStage::Experiment => Stage::Search,
+                    JobStage::Refine => Stage::Refine,
+                };
+                bar.update(&Progress {
+                    stage,
+                    iteration,
+                    iterations: iteration.max(1),
+                    evaluations,
+                    best,
+                });
+            }
+            Ok(BoardMessage::Identified(report)) => break Ok(report),
+            Ok(BoardMessage::Aborted) => break Err(anyhow!("the board aborted the job")),
+            Ok(BoardMessage::Refused(r)) => break Err(anyhow!("the board refused: {r:?}")),
+            Ok(_) => {}
+            Err(e) => break Err(e),
+        }
+    };
+    bar.finish();
+    out
+}
+
+fn report_json(r: &MotorReport) -> Value {
+    let mut params = Map::new();
+    let mut ident = Map::new();
+    for (k, id) in ParamId::MOTOR.iter().enumerate() {
+        params.insert(id.name().into(), num(r.params[k]));
+        let std = r.std[k];
+        ident.insert(
+            id.name().into(),
+            json!({ "value": num(r.params[k]), "pinned": std.is_finite(), "std": num(std) }),
+        );
+    }
+    json!({
+        "params": params,
+        "rmse_omega": num(r.rmse_omega),
+        "evaluations": r.evaluations,
+        "identifiability": { "rank": r.rank, "free": 5, "parameters": ident },
+    })
+}
+
+fn print_report(r: &MotorReport) {
+    for (k, id) in ParamId::MOTOR.iter().enumerate() {
+        let std = if r.std[k].is_finite() {
+            format!("+- {:.3e}", r.std[k])
+        } else {
+            "NOT pinned".into()
+        };
+        println!("  {:<3} = {:<14} {}", id.name(), r.params[k], std);
+    }
+    println!(
+        "rmse_omega = {} rad/s, {} evaluations, rank {}",
+        r.rmse_omega, r.evaluations, r.rank
+    );
+}
+
+/// Run `board`.
+pub fn run(a: &BoardArgs) -> Result<()> {
+    let mut c = Connection::open(a)?;
+    let max_samples = hello(&mut c)?;
+    let report = match &a.action {
+        BoardAction::Hello => {
+            println!("board speaks protocol version {PROTOCOL_VERSION}, holds records of up to {max_samples} samples");
+            return Ok(());
+        }
+        BoardAction::Identify { file } => {
+            let rec = OwnedRecord::read(file)?;
+            if rec.len() > max_samples as usize {
+                bail!(
+                    "{}: {} samples, the board holds at most {max_samples}",
+                    rec.name(),
+                    rec.len()
+                );
+            }
+            if rec.load.is_some() {
+                bail!(
+                    "{}: the board identifies voltage-driven records only (no tl column)",
+                    rec.name()
+                );
+            }
+            let with_current = rec.current.is_some();
+            let begin = HostMessage::IdentifyBegin {
+                dt: rec.dt,
+                samples: rec.len() as u32,
+                with_current,
+            };
+            c.request(&begin, |reply| match reply {
+                BoardMessage::ChunkOk { next: 0 } => Some(Ok(())),
+                other => refused(&other),
+            })?;
+            for start in (0..rec.len()).step_by(CHUNK) {
+                let end = (start + CHUNK).min(rec.len());
+                let take =
+                    |x: &[f32]| heapless::Vec::from_slice(&x[start..end]).expect("chunk fits");
+                let chunk = HostMessage::RecordChunk {
+                    offset: start as u32,
+                    v: take(&rec.v),
+                    omega: take(&rec.omega),
+                    current: rec.current.as_deref().map_or_else(heapless::Vec::new, take),
+                };
+                c.request(&chunk, |reply| match reply {
+                    BoardMessage::ChunkOk { next } if next as usize == end => Some(Ok(())),
+                    other => refused(&other),
+                })?;
+            }
+            c.send(&HostMessage::Identify { seed: a.seed })?;
+            follow_job(&mut c, a.quiet)?
+        }
+        BoardAction::Commission => {
+            c.send(&HostMessage::Commission { seed: a.seed })?;
+            follow_job(&mut c, a.quiet)?
+        }
+        BoardAction::Params => {
+            let stored = c.request(&HostMessage::ReadParams, |reply| match reply {
+                BoardMessage::Params(p) => Some(Ok(p)),
+                other => refused(&other).map(|r| r.map(|_| None)),
+            })?;
+            match stored {
+                Some(r) => r,
+                None => {
+                    println!("no parameters stored: the board commissions at its next power-up");
+                    return Ok(());
+                }
+            }
+        }
+        BoardAction::Clear => {
+            c.request(&HostMessage::ClearParams, |reply| match reply {
+                BoardMessage::Cleared => Some(Ok(())),
+                other => refused(&other),
+            })?;
+            println!("stored parameters erased");
+            return Ok(());
+        }
+    };
+    print_report(&report);
+    if let Some(path) = &a.json {
+        write_json(path, &report_json(&report))?;
+    }
+    Ok(())
+}
