@@ -133,8 +133,8 @@ mod tests {
                 dt: 1e-3,
                 samples: 2000,
                 with_current: true,
-                seed: 7,
             },
+            HostMessage::Identify { seed: 7 },
             HostMessage::RecordChunk {
                 offset: 16,
                 v: chunk(24.0),
@@ -224,7 +224,6 @@ mod tests {
             dt: 1e-3,
             samples: 2000,
             with_current: false,
-            seed: 1,
         };
         let mut out = [0u8; MAX_FRAME];
         let frame = encode(&msg, &mut out).unwrap().to_vec();
