@@ -132,3 +132,79 @@ pub fn realdata() -> PathBuf {
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 path")
 }
+
+/// The firmware's QEMU build (`firmware/`, its own workspace), built once per test run.
+pub fn firmware_elf() -> &'static Path {
+    static ELF: OnceLock<PathBuf> = OnceLock::new();
+    ELF.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        // Cargo reads firmware/.cargo/config.toml (target, linker script) from there only.
+        let status = Command::new(cargo)
+            .current_dir(&dir)
+            .env_remove("CARGO_TARGET_DIR")
+            .args(["build", "--quiet", "--release"])
+            .status()
+            .expect("run cargo build in firmware/");
+        assert!(status.success(), "firmware build failed");
+        let elf = dir.join("target/thumbv7em-none-eabihf/release/motor-id-firmware");
+        assert!(elf.exists(), "{} missing", elf.display());
+        elf
+    })
+}
+
+/// The firmware running in `qemu-system-arm -M netduinoplus2`, its USART1 on a
+/// pseudo-terminal; killed when dropped. QEMU missing is a failure, not a skip.
+pub struct Qemu {
+    child: std::process::Child,
+    /// The pseudo-terminal of the board's serial port.
+    pub pty: String,
+}
+
+impl Qemu {
+    /// Start the firmware.
+    pub fn start() -> Qemu {
+        use std::io::BufRead;
+        let elf = firmware_elf();
+        let mut child = Command::new("qemu-system-arm")
+            .args([
+                "-M",
+                "netduinoplus2",
+                "-nographic",
+                "-monitor",
+                "none",
+                "-serial",
+                "pty",
+            ])
+            .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
+            .arg(elf)
+            .stdin(std::process::Stdio::null())
+            // QEMU names the pseudo-terminal on its standard output (with semihosting output).
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("qemu-system-arm must be installed (apt-get install qemu-system-arm)");
+        let stdout = child.stdout.take().expect("piped stdout");
+        let mut lines = std::io::BufReader::new(stdout).lines();
+        let pty = loop {
+            let line = lines
+                .next()
+                .expect("QEMU exited before opening its serial port")
+                .expect("read QEMU's output");
+            if let Some(at) = line.find("/dev/pts/") {
+                let rest = &line[at..];
+                break rest.split_whitespace().next().unwrap_or(rest).to_string();
+            }
+        };
+        // Keep draining the output so that QEMU never blocks on it.
+        std::thread::spawn(move || for _ in lines {});
+        Qemu { child, pty }
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}

@@ -1,0 +1,253 @@
+//! The firmware in QEMU (netduinoplus2), driven through the host exactly as a board:
+//! `motor-id board --port <pty> ...`, plus raw frames for abort and link faults.
+
+use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
+use motor_id_shared::protocol::{BoardMessage, HostMessage, CHUNK, PROTOCOL_VERSION};
+use motor_id_tests::{json, run, run_ok, s, simulate, Qemu};
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
+
+fn record(dir: &tempfile::TempDir) -> std::path::PathBuf {
+    let csv = dir.path().join("rec.csv");
+    simulate(
+        &csv,
+        &[
+            "--profile",
+            "steps",
+            "--rate",
+            "100",
+            "--duration",
+            "20",
+            "--noise-omega",
+            "0.5",
+            "--noise-current",
+            "0.02",
+            "--seed",
+            "4",
+        ],
+    );
+    csv
+}
+
+#[test]
+fn hello_and_version() {
+    let q = Qemu::start();
+    let out = run_ok(&["board", "--port", &q.pty, "hello"]);
+    assert!(
+        out.contains(&format!("protocol version {PROTOCOL_VERSION}")),
+        "{out}"
+    );
+}
+
+#[test]
+fn board_identify_is_bit_identical_to_host_identify() {
+    let q = Qemu::start();
+    let dir = tempfile::tempdir().unwrap();
+    let csv = record(&dir);
+    let (board, host) = (dir.path().join("board.json"), dir.path().join("host.json"));
+    run_ok(&[
+        "board",
+        "--port",
+        &q.pty,
+        "--seed",
+        "5",
+        "--json",
+        s(&board),
+        "-q",
+        "identify",
+        s(&csv),
+    ]);
+    run_ok(&["identify", s(&csv), "--seed", "5", "--json", s(&host), "-q"]);
+    let (b, h) = (json(&board), json(&host));
+    assert_eq!(b["params"], h["params"], "board {b} vs host {h}");
+    assert_eq!(b["rmse_omega"], h["rmse_omega"]);
+    assert_eq!(b["evaluations"], h["evaluations"]);
+}
+
+#[test]
+fn commission_identifies_the_simulated_plant_and_stores_it() {
+    let q = Qemu::start();
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("c.json");
+    let out = run_ok(&["board", "--port", &q.pty, "params"]);
+    assert!(out.contains("no parameters stored"), "{out}");
+    run_ok(&[
+        "board",
+        "--port",
+        &q.pty,
+        "--json",
+        s(&report),
+        "-q",
+        "commission",
+    ]);
+    let r = json(&report);
+    // The QEMU build's plant is the seed paper's motor.
+    let truth = [
+        ("ra", 3.412),
+        ("la", 0.0573),
+        ("j", 0.0424),
+        ("b", 0.00267),
+        ("kv", 0.1604),
+    ];
+    for (name, t) in truth {
+        let got = r["params"][name].as_f64().unwrap();
+        assert!((got / t - 1.0).abs() < 0.03, "{name}: {got} vs {t}");
+    }
+    let stored = run_ok(&["board", "--port", &q.pty, "params"]);
+    assert!(stored.contains("rmse_omega"), "{stored}");
+    run_ok(&["board", "--port", &q.pty, "clear"]);
+    let out = run_ok(&["board", "--port", &q.pty, "params"]);
+    assert!(out.contains("no parameters stored"), "{out}");
+}
+
+/// A raw framed connection, for what the CLI does not do on purpose.
+struct Raw {
+    port: Box<dyn serialport::SerialPort>,
+    decoder: Decoder,
+}
+
+impl Raw {
+    fn open(pty: &str) -> Raw {
+        let port = serialport::new(pty, 115_200)
+            .timeout(Duration::from_millis(20))
+            .open()
+            .unwrap();
+        Raw {
+            port,
+            decoder: Decoder::new(),
+        }
+    }
+    fn bytes(&mut self, b: &[u8]) {
+        self.port.write_all(b).unwrap();
+    }
+    fn send(&mut self, msg: &HostMessage) {
+        let mut out = [0u8; MAX_FRAME];
+        let frame = encode(msg, &mut out).unwrap().to_vec();
+        self.bytes(&frame);
+    }
+    fn receive(&mut self, within: Duration) -> Option<BoardMessage> {
+        let end = Instant::now() + within;
+        let mut buf = [0u8; 64];
+        while Instant::now() < end {
+            if let Ok(n) = self.port.read(&mut buf) {
+                for b in &buf[..n] {
+                    if let Some(Ok(m)) = self.decoder.push::<BoardMessage>(*b) {
+                        return Some(m);
+                    }
+                }
+            }
+        }
+        None
+    }
+    fn hello(&mut self) -> Option<BoardMessage> {
+        self.send(&HostMessage::Hello {
+            version: PROTOCOL_VERSION,
+        });
+        self.receive(Duration::from_secs(5))
+    }
+}
+
+#[test]
+fn abort_mid_identification_and_the_board_answers_again() {
+    let q = Qemu::start();
+    let dir = tempfile::tempdir().unwrap();
+    let csv = record(&dir);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<Vec<f32>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let mut raw = Raw::open(&q.pty);
+    assert!(matches!(raw.hello(), Some(BoardMessage::Hello { .. })));
+    raw.send(&HostMessage::IdentifyBegin {
+        dt: 0.01,
+        samples: rows.len() as u32,
+        with_current: true,
+    });
+    assert_eq!(
+        raw.receive(Duration::from_secs(5)),
+        Some(BoardMessage::ChunkOk { next: 0 })
+    );
+    for start in (0..rows.len()).step_by(CHUNK) {
+        let end = (start + CHUNK).min(rows.len());
+        let col = |c: usize| heapless::Vec::from_iter(rows[start..end].iter().map(|r| r[c]));
+        raw.send(&HostMessage::RecordChunk {
+            offset: start as u32,
+            v: col(1),
+            omega: col(2),
+            current: col(3),
+        });
+        assert_eq!(
+            raw.receive(Duration::from_secs(5)),
+            Some(BoardMessage::ChunkOk { next: end as u32 })
+        );
+    }
+    raw.send(&HostMessage::Identify { seed: 1 });
+    assert!(matches!(
+        raw.receive(Duration::from_secs(10)),
+        Some(BoardMessage::Progress { .. })
+    ));
+    raw.send(&HostMessage::Abort);
+    let mut saw_abort = false;
+    for _ in 0..400 {
+        match raw.receive(Duration::from_secs(10)) {
+            Some(BoardMessage::Aborted) => {
+                saw_abort = true;
+                break;
+            }
+            Some(BoardMessage::Progress { .. }) => {}
+            other => panic!("expected Aborted, got {other:?}"),
+        }
+    }
+    assert!(saw_abort);
+    assert!(matches!(raw.hello(), Some(BoardMessage::Hello { .. })));
+}
+
+#[test]
+fn garbage_corrupted_and_dropped_bytes_are_survived() {
+    let q = Qemu::start();
+    let mut raw = Raw::open(&q.pty);
+    // Garbage, then a frame with a flipped byte, then one with a byte dropped: no answer.
+    raw.bytes(&[0x55, 0xAA, 0x13, 0x00, 0xFF, 0xFF]);
+    let mut out = [0u8; MAX_FRAME];
+    let good = encode(
+        &HostMessage::Hello {
+            version: PROTOCOL_VERSION,
+        },
+        &mut out,
+    )
+    .unwrap()
+    .to_vec();
+    let mut flipped = good.clone();
+    flipped[1] ^= 0x10;
+    raw.bytes(&flipped);
+    let mut dropped = good.clone();
+    dropped.remove(1);
+    raw.bytes(&dropped);
+    assert_eq!(raw.receive(Duration::from_millis(500)), None);
+    // The next good frame is answered.
+    assert!(matches!(raw.hello(), Some(BoardMessage::Hello { .. })));
+    // A version mismatch is refused politely.
+    raw.send(&HostMessage::Hello {
+        version: PROTOCOL_VERSION + 1,
+    });
+    assert!(matches!(
+        raw.receive(Duration::from_secs(5)),
+        Some(BoardMessage::Refused(_))
+    ));
+    // And the CLI copes with a board that never answers: one line, non-zero exit, no hang.
+    drop(raw);
+    drop(q);
+    let dir = tempfile::tempdir().unwrap();
+    let fake = dir.path().join("not-a-port");
+    let out = run(&["board", "--port", s(&fake), "--timeout", "1", "hello"]);
+    assert!(!out.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr)
+            .trim_end()
+            .lines()
+            .count(),
+        1
+    );
+}
