@@ -21,6 +21,7 @@ pub mod initial;
 pub mod linalg;
 pub mod objective;
 pub mod params;
+pub mod plant;
 pub mod profile;
 pub mod protocol;
 pub mod record;
@@ -29,6 +30,7 @@ pub mod rng;
 pub mod service;
 pub mod sim;
 pub mod space;
+pub mod stored;
 pub mod synth;
 #[cfg(test)]
 pub(crate) mod testkit;

@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -106,6 +106,10 @@ pub enum Refusal {
     InvalidRecord,
     /// A safety limit tripped during the experiment.
     Trip,
+    /// Safety check: the motor turned before any voltage was applied.
+    NotAtRest,
+    /// Safety check: a sensor reads non-finite values or an offset at 0 V.
+    SensorFault,
     /// Busy with another job.
     Busy,
 }

@@ -1,7 +1,10 @@
-//! The drive board's application, independent of any register: it answers the host's
+//! The drive board's application, independent of any register: at power-up it commissions a
+//! motor it has no valid parameters for (safety checks, bounded experiment, identification,
+//! store) or goes straight into service; in service it answers the host's
 //! [`crate::protocol`] requests over a [`Link`], identifies from a record the host streams in,
-//! and commissions a motor through a [`Drive`] (bounded experiment, identification, store).
-//! The board and QEMU builds implement the traits; tests drive it with a simulated plant.
+//! and commissions again on request. The board and QEMU builds implement the traits
+//! ([`Link`], [`Drive`], [`ParamStore`], [`Watchdog`]); the tests below drive it with the
+//! simulated plant of [`crate::plant`].
 
 use crate::identify::{identify, IdentifyConfig, Progress, Stage};
 use crate::params::ParamId;
@@ -34,9 +37,9 @@ pub struct Sample {
 pub trait Drive {
     /// Sample period [s].
     fn dt(&self) -> f32;
-    /// Read the sensors now, then apply `volts` until the next sample.
+    /// Wait for the next sample, return it, then apply `volts` until the one after.
     fn step(&mut self, volts: f32) -> Sample;
-    /// Remove drive (coast).
+    /// Remove drive (all bridge switches off: the motor coasts).
     fn stop(&mut self);
 }
 
@@ -48,6 +51,59 @@ pub trait ParamStore {
     fn save(&mut self, report: &MotorReport);
     /// Erase.
     fn clear(&mut self);
+}
+
+/// The independent watchdog: it stays on during experiments and identification, which feed
+/// it at every sample and every optimiser iteration.
+pub trait Watchdog {
+    /// Restart the watchdog's count-down.
+    fn feed(&mut self);
+}
+
+/// For builds without a watchdog (QEMU does not model the IWDG).
+pub struct NoWatchdog;
+
+impl Watchdog for NoWatchdog {
+    fn feed(&mut self) {}
+}
+
+/// The board as the application sees it: link, drive, parameter store, watchdog.
+pub struct Hardware<L, D, P, W> {
+    /// Link to the host.
+    pub link: L,
+    /// Power stage and sensors.
+    pub drive: D,
+    /// Non-volatile parameters.
+    pub params: P,
+    /// Independent watchdog.
+    pub watchdog: W,
+}
+
+/// Seed of the identification that power-up commissioning runs.
+pub const BOOT_SEED: u64 = 1;
+
+/// Samples read at 0 V before an experiment (safety checks).
+pub const SAFETY_SAMPLES: usize = 32;
+
+/// How power-up went.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Boot {
+    /// Valid parameters were stored: straight into service.
+    InService(MotorReport),
+    /// Nothing valid was stored: the motor was commissioned and its parameters stored.
+    Commissioned(MotorReport),
+    /// Commissioning failed (safety check, trip, invalid data) or was aborted; the board
+    /// serves the host without parameters.
+    NotCommissioned(JobEnd),
+}
+
+/// Why a job ended without a result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JobEnd {
+    /// The host asked to abort.
+    Aborted,
+    /// A check failed; the reason as reported to the host.
+    Refused(Refusal),
 }
 
 /// Limits of the commissioning experiment.
@@ -129,6 +185,19 @@ pub fn motor_report(id: &crate::identify::Identification) -> MotorReport {
     }
 }
 
+/// During a job: `true` when the host asked to abort; any other request is answered
+/// [`Refusal::Busy`].
+fn abort_requested(link: &mut impl Link) -> bool {
+    match link.poll() {
+        Some(HostMessage::Abort) => true,
+        Some(_) => {
+            link.send(&BoardMessage::Refused(Refusal::Busy));
+            false
+        }
+        None => false,
+    }
+}
+
 impl<'s, const N: usize> Service<'s, N> {
     /// A service using `store` for records, within `limits` when commissioning.
     pub fn new(store: &'s mut RecordStore<N>, limits: Limits) -> Self {
@@ -139,31 +208,57 @@ impl<'s, const N: usize> Service<'s, N> {
         }
     }
 
+    /// Power-up: into service with valid stored parameters, otherwise self-commissioning
+    /// (its progress and result go out on the link for whoever listens).
+    pub fn boot<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
+        &mut self,
+        hw: &mut Hardware<L, D, P, W>,
+    ) -> Boot {
+        hw.watchdog.feed();
+        if let Some(stored) = hw.params.load() {
+            return Boot::InService(stored);
+        }
+        match self.commission(BOOT_SEED, hw) {
+            Ok(report) => Boot::Commissioned(report),
+            Err(end) => Boot::NotCommissioned(end),
+        }
+    }
+
+    /// One turn of the service loop: feed the watchdog, handle a request if one came.
+    pub fn poll<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
+        &mut self,
+        hw: &mut Hardware<L, D, P, W>,
+    ) {
+        hw.watchdog.feed();
+        if let Some(msg) = hw.link.poll() {
+            self.handle(msg, hw);
+        }
+    }
+
     /// Handle one request.
-    pub fn handle(
+    pub fn handle<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
         &mut self,
         msg: HostMessage,
-        link: &mut impl Link,
-        drive: &mut impl Drive,
-        params: &mut impl ParamStore,
+        hw: &mut Hardware<L, D, P, W>,
     ) {
         if let HostMessage::Hello { version } = msg {
             if version == PROTOCOL_VERSION {
                 self.session = true;
-                link.send(&BoardMessage::Hello {
+                hw.link.send(&BoardMessage::Hello {
                     version: PROTOCOL_VERSION,
                     max_samples: N as u32,
                 });
             } else {
                 self.session = false;
-                link.send(&BoardMessage::Refused(Refusal::VersionMismatch {
-                    board: PROTOCOL_VERSION,
-                }));
+                hw.link
+                    .send(&BoardMessage::Refused(Refusal::VersionMismatch {
+                        board: PROTOCOL_VERSION,
+                    }));
             }
             return;
         }
         if !self.session {
-            link.send(&BoardMessage::Refused(Refusal::NoSession));
+            hw.link.send(&BoardMessage::Refused(Refusal::NoSession));
             return;
         }
         match msg {
@@ -172,10 +267,9 @@ impl<'s, const N: usize> Service<'s, N> {
                 dt,
                 samples,
                 with_current,
-                ..
             } => {
                 if samples as usize > N {
-                    link.send(&BoardMessage::Refused(Refusal::RecordTooLong {
+                    hw.link.send(&BoardMessage::Refused(Refusal::RecordTooLong {
                         max: N as u32,
                     }));
                     return;
@@ -185,7 +279,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 s.len = 0;
                 s.expected = samples as usize;
                 s.with_current = with_current;
-                link.send(&BoardMessage::ChunkOk { next: 0 });
+                hw.link.send(&BoardMessage::ChunkOk { next: 0 });
             }
             HostMessage::RecordChunk {
                 offset,
@@ -197,7 +291,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 let n = v.len();
                 // A repeat of the last chunk (its acknowledgement was lost) is acknowledged again.
                 if n > 0 && offset as usize + n == s.len {
-                    link.send(&BoardMessage::ChunkOk { next: s.len as u32 });
+                    hw.link.send(&BoardMessage::ChunkOk { next: s.len as u32 });
                     return;
                 }
                 let ok = offset as usize == s.len
@@ -205,7 +299,7 @@ impl<'s, const N: usize> Service<'s, N> {
                     && (!s.with_current || current.len() == n)
                     && s.len + n <= s.expected;
                 if !ok {
-                    link.send(&BoardMessage::Refused(Refusal::BadChunk));
+                    hw.link.send(&BoardMessage::Refused(Refusal::BadChunk));
                     return;
                 }
                 for k in 0..n {
@@ -214,40 +308,47 @@ impl<'s, const N: usize> Service<'s, N> {
                     s.current[s.len + k] = if s.with_current { current[k] } else { 0.0 };
                 }
                 s.len += n;
-                link.send(&BoardMessage::ChunkOk { next: s.len as u32 });
+                hw.link.send(&BoardMessage::ChunkOk { next: s.len as u32 });
             }
             HostMessage::Identify { seed } => {
                 if self.store.len != self.store.expected || self.store.len == 0 {
-                    link.send(&BoardMessage::Refused(Refusal::BadChunk));
+                    hw.link.send(&BoardMessage::Refused(Refusal::BadChunk));
                     return;
                 }
                 // The host's default pipeline, so that the board's answer is bit-identical.
                 let cfg = IdentifyConfig::default_pipeline(seed);
-                self.identify_and_report(&cfg, link, None);
+                // Failures have been reported on the link.
+                let _ = self.identify_and_report(&cfg, hw, false);
             }
             HostMessage::Commission { seed } => {
-                self.commission(seed, link, drive, params);
+                // The result or the failure has been reported on the link.
+                let _ = self.commission(seed, hw);
             }
-            HostMessage::ReadParams => link.send(&BoardMessage::Params(params.load())),
+            HostMessage::ReadParams => {
+                let stored = hw.params.load();
+                hw.link.send(&BoardMessage::Params(stored));
+            }
             HostMessage::ClearParams => {
-                params.clear();
-                link.send(&BoardMessage::Cleared);
+                hw.params.clear();
+                hw.link.send(&BoardMessage::Cleared);
             }
-            HostMessage::Abort => link.send(&BoardMessage::Aborted),
+            HostMessage::Abort => hw.link.send(&BoardMessage::Aborted),
         }
     }
 
-    /// Identify from the stored record, reporting progress; `Abort` from the host stops it.
-    /// Returns the report when it completed.
-    fn identify_and_report(
+    /// Identify from the stored record, reporting progress and feeding the watchdog at every
+    /// iteration; `Abort` from the host stops it. With `store`, the result is kept.
+    fn identify_and_report<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
         &mut self,
         cfg: &IdentifyConfig,
-        link: &mut impl Link,
-        params: Option<&mut dyn ParamStore>,
-    ) -> Option<MotorReport> {
+        hw: &mut Hardware<L, D, P, W>,
+        store: bool,
+    ) -> Result<MotorReport, JobEnd> {
         let record = [self.store.record()];
         let mut aborted = false;
+        let (link, watchdog) = (&mut hw.link, &mut hw.watchdog);
         let result = identify(&record, &ProblemSpec::default(), cfg, |p: &Progress| {
+            watchdog.feed();
             link.send(&BoardMessage::Progress {
                 stage: match p.stage {
                     Stage::Search => JobStage::Search,
@@ -257,84 +358,323 @@ impl<'s, const N: usize> Service<'s, N> {
                 evaluations: p.evaluations,
                 best: p.best,
             });
-            if matches!(link.poll(), Some(HostMessage::Abort)) {
+            if abort_requested(link) {
                 aborted = true;
                 return ControlFlow::Break(());
             }
             ControlFlow::Continue(())
         });
-        match result {
-            _ if aborted => {
-                link.send(&BoardMessage::Aborted);
-                None
-            }
+        hw.watchdog.feed();
+        let end = match result {
+            _ if aborted => JobEnd::Aborted,
             Ok(id) => {
                 let report = motor_report(&id);
-                if let Some(store) = params {
-                    store.save(&report);
+                if store {
+                    hw.params.save(&report);
                 }
-                link.send(&BoardMessage::Identified(report));
-                Some(report)
+                hw.link.send(&BoardMessage::Identified(report));
+                return Ok(report);
             }
-            Err(_) => {
-                link.send(&BoardMessage::Refused(Refusal::InvalidRecord));
-                None
-            }
-        }
+            Err(_) => JobEnd::Refused(Refusal::InvalidRecord),
+        };
+        self.fail(end, &mut hw.link)
     }
 
-    /// Self-commissioning: a bounded voltage-steps experiment with speed and current limits
-    /// (any trip stops the drive and aborts), identification in fixed memory with progress,
-    /// store, report.
-    pub fn commission(
+    fn fail<T>(&self, end: JobEnd, link: &mut impl Link) -> Result<T, JobEnd> {
+        link.send(&match end {
+            JobEnd::Aborted => BoardMessage::Aborted,
+            JobEnd::Refused(r) => BoardMessage::Refused(r),
+        });
+        Err(end)
+    }
+
+    /// Safety checks before any voltage is applied: [`SAFETY_SAMPLES`] samples at 0 V must
+    /// be finite (sensors connected), show the motor at rest (|speed| under 2 % of the speed
+    /// limit) and a current sensor without offset (|current| under 2 % of the current limit).
+    fn safety_checks(
+        &self,
+        drive: &mut impl Drive,
+        watchdog: &mut impl Watchdog,
+    ) -> Result<(), Refusal> {
+        let (mut omega, mut current) = (0.0f32, 0.0f32);
+        for _ in 0..SAFETY_SAMPLES {
+            watchdog.feed();
+            let s = drive.step(0.0);
+            if !(s.omega.is_finite() && s.current.is_finite()) {
+                return Err(Refusal::SensorFault);
+            }
+            omega += s.omega;
+            current += s.current;
+        }
+        let n = SAFETY_SAMPLES as f32;
+        if (current / n).abs() > 0.02 * self.limits.current {
+            return Err(Refusal::SensorFault);
+        }
+        if (omega / n).abs() > 0.02 * self.limits.speed {
+            return Err(Refusal::NotAtRest);
+        }
+        Ok(())
+    }
+
+    /// Self-commissioning: safety checks, then a bounded experiment (seed Section 6 speed
+    /// changes: voltage steps ½ → 1 → ¼ of the voltage limit over the record's length, read
+    /// on tacho and current; a trip of the current or speed limit stops the drive and
+    /// aborts), identification in fixed memory with progress (the board pipeline), store,
+    /// report.
+    pub fn commission<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
         &mut self,
         seed: u64,
-        link: &mut impl Link,
-        drive: &mut impl Drive,
-        params: &mut impl ParamStore,
-    ) -> Option<MotorReport> {
-        let dt = drive.dt();
-        let n = N;
+        hw: &mut Hardware<L, D, P, W>,
+    ) -> Result<MotorReport, JobEnd> {
+        if let Err(r) = self.safety_checks(&mut hw.drive, &mut hw.watchdog) {
+            hw.drive.stop();
+            return self.fail(JobEnd::Refused(r), &mut hw.link);
+        }
+        let dt = hw.drive.dt();
         let experiment = Experiment {
             profile: Profile::Steps,
             voltage: self.limits.voltage,
-            duration: dt * n as f32,
+            duration: dt * N as f32,
             load_torque: 0.0,
         };
         let s = &mut *self.store;
         s.dt = dt;
         s.with_current = true;
         s.len = 0;
-        s.expected = n;
-        for k in 0..n {
-            let v = experiment.at(k as f32 * dt).v;
-            let sample = drive.step(v);
-            let trip = !(sample.current.abs() <= self.limits.current
-                && sample.omega.abs() <= self.limits.speed);
-            if trip {
-                drive.stop();
-                link.send(&BoardMessage::Refused(Refusal::Trip));
-                return None;
+        s.expected = N;
+        for k in 0..N {
+            hw.watchdog.feed();
+            let v = experiment
+                .at(k as f32 * dt)
+                .v
+                .clamp(-self.limits.voltage, self.limits.voltage);
+            let sample = hw.drive.step(v);
+            let within = sample.current.abs() <= self.limits.current
+                && sample.omega.abs() <= self.limits.speed;
+            if !within {
+                hw.drive.stop();
+                return self.fail(JobEnd::Refused(Refusal::Trip), &mut hw.link);
             }
             s.v[k] = v;
             s.omega[k] = sample.omega;
             s.current[k] = sample.current;
             s.len = k + 1;
             if k % 256 == 0 {
-                link.send(&BoardMessage::Progress {
+                hw.link.send(&BoardMessage::Progress {
                     stage: JobStage::Experiment,
                     iteration: k as u32,
                     evaluations: 0,
                     best: 0.0,
                 });
-                if matches!(link.poll(), Some(HostMessage::Abort)) {
-                    drive.stop();
-                    link.send(&BoardMessage::Aborted);
-                    return None;
+                if abort_requested(&mut hw.link) {
+                    hw.drive.stop();
+                    return self.fail(JobEnd::Aborted, &mut hw.link);
                 }
             }
         }
-        drive.stop();
-        self.identify_and_report(&IdentifyConfig::board(seed), link, Some(params))
+        hw.drive.stop();
+        self.identify_and_report(&IdentifyConfig::board(seed), hw, true)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::ModelParams;
+    use crate::plant::SimulatedPlant;
+    use std::collections::VecDeque;
+
+    /// A link whose incoming requests are queued, each released after `after` polls.
+    #[derive(Default)]
+    struct TestLink {
+        incoming: VecDeque<(u32, HostMessage)>,
+        polls: u32,
+        sent: Vec<BoardMessage>,
+    }
+
+    impl Link for TestLink {
+        fn send(&mut self, msg: &BoardMessage) {
+            self.sent.push(msg.clone());
+        }
+        fn poll(&mut self) -> Option<HostMessage> {
+            self.polls += 1;
+            match self.incoming.front() {
+                Some((after, _)) if self.polls > *after => self.incoming.pop_front().map(|m| m.1),
+                _ => None,
+            }
+        }
+    }
+
+    #[derive(Default)]
+    struct RamParams(Option<MotorReport>, u32);
+
+    impl ParamStore for RamParams {
+        fn load(&mut self) -> Option<MotorReport> {
+            self.0
+        }
+        fn save(&mut self, report: &MotorReport) {
+            self.0 = Some(*report);
+            self.1 += 1;
+        }
+        fn clear(&mut self) {
+            self.0 = None;
+        }
+    }
+
+    #[derive(Default)]
+    struct CountingWatchdog(u32);
+
+    impl Watchdog for CountingWatchdog {
+        fn feed(&mut self) {
+            self.0 += 1;
+        }
+    }
+
+    const LIMITS: Limits = Limits {
+        voltage: 50.0,
+        current: 40.0,
+        speed: 500.0,
+    };
+    const SAMPLES: usize = 2000;
+
+    type TestHardware = Hardware<TestLink, SimulatedPlant, RamParams, CountingWatchdog>;
+
+    fn hardware(plant: SimulatedPlant) -> TestHardware {
+        Hardware {
+            link: TestLink::default(),
+            drive: plant,
+            params: RamParams::default(),
+            watchdog: CountingWatchdog::default(),
+        }
+    }
+
+    fn seed_plant() -> SimulatedPlant {
+        SimulatedPlant::new(&ModelParams::SEED_MOTOR, 0.01, 0.5, 0.02, 7).unwrap()
+    }
+
+    fn progress_count(sent: &[BoardMessage]) -> u32 {
+        sent.iter()
+            .filter(|m| matches!(m, BoardMessage::Progress { .. }))
+            .count() as u32
+    }
+
+    #[test]
+    fn first_power_up_commissions_then_boots_into_service() {
+        let mut store = RecordStore::<SAMPLES>::new();
+        let mut service = Service::new(&mut store, LIMITS);
+        let mut hw = hardware(seed_plant());
+        let Boot::Commissioned(report) = service.boot(&mut hw) else {
+            panic!("expected commissioning, got {:?}", hw.link.sent.last());
+        };
+        let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
+        for (got, want) in report.params.iter().zip(truth) {
+            assert!((got / want - 1.0).abs() < 0.03, "{got} vs {want}");
+        }
+        assert_eq!(report.rank, 5, "speed and current pin all five");
+        assert_eq!(hw.params.0, Some(report));
+        assert_eq!(hw.drive.stopped, 1, "drive removed after the experiment");
+        assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Identified(report)));
+        // Every sample and every progress report fed the watchdog.
+        assert!(
+            hw.watchdog.0 > (SAFETY_SAMPLES + SAMPLES) as u32 + progress_count(&hw.link.sent) - 8
+        );
+        // The next power-up finds the parameters and runs no experiment.
+        let mut service = Service::new(&mut store, LIMITS);
+        hw.link.sent.clear();
+        assert_eq!(service.boot(&mut hw), Boot::InService(report));
+        assert!(hw.link.sent.is_empty());
+        assert_eq!(hw.params.1, 1, "stored once");
+    }
+
+    #[test]
+    fn a_current_sensor_offset_fails_the_safety_check_before_any_voltage() {
+        let mut store = RecordStore::<SAMPLES>::new();
+        let mut service = Service::new(&mut store, LIMITS);
+        let mut plant = seed_plant();
+        plant.current_offset = 2.0;
+        let mut hw = hardware(plant);
+        let end = JobEnd::Refused(Refusal::SensorFault);
+        assert_eq!(service.boot(&mut hw), Boot::NotCommissioned(end));
+        assert_eq!(hw.params.0, None);
+        assert_eq!(hw.drive.stopped, 1);
+        assert_eq!(
+            hw.link.sent,
+            vec![BoardMessage::Refused(Refusal::SensorFault)]
+        );
+    }
+
+    #[test]
+    fn a_current_trip_stops_the_drive_and_stores_nothing() {
+        let mut store = RecordStore::<SAMPLES>::new();
+        // The seed motor draws 50 V / 3.412 Ohm = 14.7 A at the step: a 5 A limit trips.
+        let limits = Limits {
+            current: 5.0,
+            ..LIMITS
+        };
+        let mut service = Service::new(&mut store, limits);
+        let mut hw = hardware(seed_plant());
+        let end = JobEnd::Refused(Refusal::Trip);
+        assert_eq!(service.boot(&mut hw), Boot::NotCommissioned(end));
+        assert_eq!(hw.params.0, None);
+        assert_eq!(hw.drive.stopped, 1);
+        assert_eq!(
+            hw.link.sent.last(),
+            Some(&BoardMessage::Refused(Refusal::Trip))
+        );
+    }
+
+    #[test]
+    fn abort_during_identification_stores_nothing_and_requests_meanwhile_are_busy() {
+        let mut store = RecordStore::<SAMPLES>::new();
+        let mut service = Service::new(&mut store, LIMITS);
+        let mut hw = hardware(seed_plant());
+        // Polls 1..=8 fall in the experiment (every 256 samples); later ones in the fit.
+        let hello = HostMessage::Hello {
+            version: PROTOCOL_VERSION,
+        };
+        hw.link.incoming.push_back((9, hello));
+        hw.link.incoming.push_back((10, HostMessage::Abort));
+        assert_eq!(
+            service.boot(&mut hw),
+            Boot::NotCommissioned(JobEnd::Aborted)
+        );
+        assert_eq!(hw.params.0, None);
+        assert!(hw.link.sent.contains(&BoardMessage::Refused(Refusal::Busy)));
+        assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Aborted));
+        assert!(hw.link.sent.iter().any(|m| matches!(
+            m,
+            BoardMessage::Progress {
+                stage: JobStage::Search | JobStage::Refine,
+                ..
+            }
+        )));
+    }
+
+    #[test]
+    fn requests_need_a_session_of_the_same_version() {
+        let mut store = RecordStore::<SAMPLES>::new();
+        let mut service = Service::new(&mut store, LIMITS);
+        let mut hw = hardware(seed_plant());
+        service.handle(HostMessage::ReadParams, &mut hw);
+        let hello = |version| HostMessage::Hello { version };
+        service.handle(hello(PROTOCOL_VERSION + 1), &mut hw);
+        service.handle(HostMessage::ReadParams, &mut hw);
+        service.handle(hello(PROTOCOL_VERSION), &mut hw);
+        service.handle(HostMessage::ReadParams, &mut hw);
+        assert_eq!(
+            hw.link.sent,
+            vec![
+                BoardMessage::Refused(Refusal::NoSession),
+                BoardMessage::Refused(Refusal::VersionMismatch {
+                    board: PROTOCOL_VERSION
+                }),
+                BoardMessage::Refused(Refusal::NoSession),
+                BoardMessage::Hello {
+                    version: PROTOCOL_VERSION,
+                    max_samples: SAMPLES as u32
+                },
+                BoardMessage::Params(None),
+            ]
+        );
     }
 }

@@ -1,0 +1,65 @@
+//! A simulated motor behind the [`Drive`] trait that the board's PWM and ADC implement: the
+//! shared model (seed Eq. 1-5, with any effect of [`ModelParams`]) with white sensor noise.
+//! The QEMU build commissions it, and the host tests of [`crate::service`] drive it.
+
+use crate::params::ModelParams;
+use crate::rng::{self, Rng};
+use crate::service::{Drive, Sample};
+use crate::sim::{InitialState, Simulator};
+use crate::Error;
+
+/// A simulated motor sampled every `dt`.
+pub struct SimulatedPlant {
+    sim: Simulator,
+    dt: f32,
+    rng: Rng,
+    noise_omega: f32,
+    noise_current: f32,
+    /// How often the drive was stopped (the tests check that every trip stops it).
+    pub stopped: u32,
+    /// Offset of the current sensor [A] (0 for a healthy sensor).
+    pub current_offset: f32,
+}
+
+impl SimulatedPlant {
+    /// The plant `p` at step `dt` with white sensor noise.
+    pub fn new(
+        p: &ModelParams,
+        dt: f32,
+        noise_omega: f32,
+        noise_current: f32,
+        seed: u64,
+    ) -> Result<Self, Error> {
+        let sim = Simulator::new(p, dt, InitialState::REST)?;
+        Ok(SimulatedPlant {
+            sim,
+            dt,
+            rng: rng::seeded(seed),
+            noise_omega,
+            noise_current,
+            stopped: 0,
+            current_offset: 0.0,
+        })
+    }
+}
+
+impl Drive for SimulatedPlant {
+    fn dt(&self) -> f32 {
+        self.dt
+    }
+
+    fn step(&mut self, volts: f32) -> Sample {
+        let r = self.sim.reading();
+        self.sim.advance(volts, 0.0);
+        Sample {
+            omega: r.omega + self.noise_omega * rng::normal(&mut self.rng),
+            current: r.current
+                + self.current_offset
+                + self.noise_current * rng::normal(&mut self.rng),
+        }
+    }
+
+    fn stop(&mut self) {
+        self.stopped += 1;
+    }
+}
