@@ -1,41 +1,49 @@
-//! The host link over USART1: frames of [`motor_id_shared::frame`].
+//! The host link: frames of `motor_id_shared::frame` over any byte-wise serial port.
 
-use crate::usart::Usart1;
 use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::protocol::{BoardMessage, HostMessage};
 use motor_id_shared::service::Link;
 
-/// Framed messages over the USART.
-pub struct SerialLink {
-    usart: Usart1,
+/// A serial port, byte by byte.
+pub trait ByteSerial {
+    /// Send one byte, waiting for room.
+    fn write(&mut self, byte: u8);
+    /// A received byte, if any (never blocks).
+    fn read(&mut self) -> Option<u8>;
+}
+
+/// Framed messages over a serial port.
+pub struct SerialLink<S> {
+    serial: S,
     decoder: Decoder,
 }
 
-impl SerialLink {
-    /// Link over `usart`.
-    pub fn new(usart: Usart1) -> Self {
+impl<S: ByteSerial> SerialLink<S> {
+    /// Link over `serial`.
+    pub fn new(serial: S) -> Self {
         SerialLink {
-            usart,
+            serial,
             decoder: Decoder::new(),
         }
     }
 }
 
-impl Link for SerialLink {
+impl<S: ByteSerial> Link for SerialLink<S> {
     fn send(&mut self, msg: &BoardMessage) {
         let mut out = [0u8; MAX_FRAME];
-        if let Ok(frame) = encode(msg, &mut out) {
-            for b in frame {
-                self.usart.write(*b);
-            }
+        match encode(msg, &mut out) {
+            Ok(frame) => frame.iter().for_each(|b| self.serial.write(*b)),
+            Err(e) => defmt::error!("reply not sent: {}", e),
         }
     }
 
     fn poll(&mut self) -> Option<HostMessage> {
-        while let Some(b) = self.usart.read() {
-            // Corrupted frames are dropped: the host times out and repeats its request.
-            if let Some(Ok(msg)) = self.decoder.push(b) {
-                return Some(msg);
+        while let Some(b) = self.serial.read() {
+            match self.decoder.push(b) {
+                Some(Ok(msg)) => return Some(msg),
+                // Corrupted frames are dropped: the host times out and repeats its request.
+                Some(Err(e)) => defmt::debug!("frame dropped: {}", e),
+                None => {}
             }
         }
         None

@@ -11,7 +11,7 @@ use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::identify::{Progress, Stage};
 use motor_id_shared::params::ParamId;
 use motor_id_shared::protocol::{
-    BoardMessage, HostMessage, JobStage, MotorReport, CHUNK, PROTOCOL_VERSION,
+    BoardMessage, HostMessage, JobStage, MotorReport, Refusal, CHUNK, PROTOCOL_VERSION,
 };
 use serde_json::{json, Map, Value};
 use std::io::{Read, Write};
@@ -27,7 +27,8 @@ pub struct BoardArgs {
     /// Baud rate.
     #[arg(long, default_value_t = 115_200)]
     pub baud: u32,
-    /// Seconds to wait for each reply (progress frames restart the clock).
+    /// Seconds to wait for each reply (progress frames restart the clock); a board busy with
+    /// a job (commissioning at power-up) is waited for up to six times as long.
     #[arg(long, default_value_t = 10.0)]
     pub timeout: f64,
     /// Random seed of identifications.
@@ -118,17 +119,25 @@ impl Connection {
     }
 
     /// Send `msg` and wait for a reply that `accept` takes, repeating the request (up to three
-    /// times) when nothing comes back, as after a corrupted frame.
+    /// times) when nothing comes back, as after a corrupted frame. A board busy with a job
+    /// (commissioning at power-up, say) is asked again every 0.2 s for up to
+    /// [`BUSY_TIMEOUTS`] timeouts.
     fn request<T>(
         &mut self,
         msg: &HostMessage,
         mut accept: impl FnMut(BoardMessage) -> Option<Result<T>>,
     ) -> Result<T> {
+        let busy_until = Instant::now() + self.timeout * BUSY_TIMEOUTS;
         let mut last = None;
-        for _ in 0..3 {
+        let mut tries = 0;
+        while tries < 3 {
             self.send(msg)?;
             loop {
                 match self.receive() {
+                    Ok(BoardMessage::Refused(Refusal::Busy)) if Instant::now() < busy_until => {
+                        std::thread::sleep(Duration::from_millis(200));
+                        break;
+                    }
                     Ok(reply) => {
                         if let Some(r) = accept(reply) {
                             return r;
@@ -136,6 +145,7 @@ impl Connection {
                     }
                     Err(e) => {
                         last = Some(e);
+                        tries += 1;
                         break;
                     }
                 }
@@ -145,9 +155,12 @@ impl Connection {
     }
 }
 
+/// How many `--timeout`s a busy board is waited for.
+const BUSY_TIMEOUTS: u32 = 6;
+
 fn refused(reply: &BoardMessage) -> Option<Result<()>> {
     match reply {
-        BoardMessage::Refused(r) => Some(Err(anyhow!("the board refused: {r:?}"))),
+        BoardMessage::Refused(r) => Some(Err(anyhow!("the board refused: {r}"))),
         _ => None,
     }
 }
@@ -155,7 +168,7 @@ fn refused(reply: &BoardMessage) -> Option<Result<()>> {
 fn hello(c: &mut Connection) -> Result<u32> {
     c.request(&HostMessage::Hello { version: PROTOCOL_VERSION }, |reply| match reply {
         BoardMessage::Hello { version, max_samples } if version == PROTOCOL_VERSION => Some(Ok(max_samples)),
-        BoardMessage::Refused(motor_id_shared::protocol::Refusal::VersionMismatch { board }) => Some(Err(anyhow!(
+        BoardMessage::Refused(Refusal::VersionMismatch { board }) => Some(Err(anyhow!(
             "protocol mismatch: this host speaks version {PROTOCOL_VERSION}, the board {board}; update one of them"
         ))),
         other => refused(&other).map(|r| r.map(|_| 0)),
@@ -187,7 +200,7 @@ fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
             }
             Ok(BoardMessage::Identified(report)) => break Ok(report),
             Ok(BoardMessage::Aborted) => break Err(anyhow!("the board aborted the job")),
-            Ok(BoardMessage::Refused(r)) => break Err(anyhow!("the board refused: {r:?}")),
+            Ok(BoardMessage::Refused(r)) => break Err(anyhow!("the board refused: {r}")),
             Ok(_) => {}
             Err(e) => break Err(e),
         }

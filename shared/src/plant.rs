@@ -17,8 +17,8 @@ pub struct SimulatedPlant {
     noise_current: f32,
     /// How often the drive was stopped (the tests check that every trip stops it).
     pub stopped: u32,
-    /// Offset of the current sensor [A] (0 for a healthy sensor).
-    pub current_offset: f32,
+    /// Offsets of the speed [rad/s] and current [A] readings (zero for healthy sensors).
+    pub offset: Sample,
 }
 
 impl SimulatedPlant {
@@ -38,7 +38,10 @@ impl SimulatedPlant {
             noise_omega,
             noise_current,
             stopped: 0,
-            current_offset: 0.0,
+            offset: Sample {
+                omega: 0.0,
+                current: 0.0,
+            },
         })
     }
 }
@@ -52,9 +55,9 @@ impl Drive for SimulatedPlant {
         let r = self.sim.reading();
         self.sim.advance(volts, 0.0);
         Sample {
-            omega: r.omega + self.noise_omega * rng::normal(&mut self.rng),
+            omega: r.omega + self.offset.omega + self.noise_omega * rng::normal(&mut self.rng),
             current: r.current
-                + self.current_offset
+                + self.offset.current
                 + self.noise_current * rng::normal(&mut self.rng),
         }
     }

@@ -87,6 +87,7 @@ pub struct MotorReport {
 
 /// Why the board refused or failed a request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Refusal {
     /// Protocol versions differ; the board's is given.
     VersionMismatch {
@@ -112,6 +113,28 @@ pub enum Refusal {
     SensorFault,
     /// Busy with another job.
     Busy,
+}
+
+impl core::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Refusal::VersionMismatch { board } => {
+                write!(f, "protocol version mismatch (the board speaks {board})")
+            }
+            Refusal::NoSession => f.write_str("no session (hello first)"),
+            Refusal::RecordTooLong { max } => {
+                write!(f, "record too long (the board holds {max} samples)")
+            }
+            Refusal::BadChunk => f.write_str("record chunk out of order or incomplete record"),
+            Refusal::InvalidRecord => f.write_str("the record cannot be identified"),
+            Refusal::Trip => f.write_str("a current or speed limit tripped: drive stopped"),
+            Refusal::NotAtRest => f.write_str("safety check: the motor turns at 0 V"),
+            Refusal::SensorFault => {
+                f.write_str("safety check: a sensor reads non-finite values or an offset at 0 V")
+            }
+            Refusal::Busy => f.write_str("busy with another job"),
+        }
+    }
 }
 
 /// What the board answers.

@@ -85,6 +85,9 @@ pub const BOOT_SEED: u64 = 1;
 /// Samples read at 0 V before an experiment (safety checks).
 pub const SAFETY_SAMPLES: usize = 32;
 
+/// Samples the safety checks wait at 0 V for the motor to come to rest.
+pub const REST_WAIT_SAMPLES: usize = 2048;
+
 /// How power-up went.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Boot {
@@ -388,32 +391,35 @@ impl<'s, const N: usize> Service<'s, N> {
         Err(end)
     }
 
-    /// Safety checks before any voltage is applied: [`SAFETY_SAMPLES`] samples at 0 V must
-    /// be finite (sensors connected), show the motor at rest (|speed| under 2 % of the speed
-    /// limit) and a current sensor without offset (|current| under 2 % of the current limit).
+    /// Safety checks before any voltage is applied, at 0 V: the sensors read finite values;
+    /// the motor comes to rest (mean |speed| over [`SAFETY_SAMPLES`] under 2 % of the speed
+    /// limit) within [`REST_WAIT_SAMPLES`] (it may still be turning from a previous run);
+    /// then the current sensor shows no offset (mean |current| under 2 % of the limit).
     fn safety_checks(
         &self,
         drive: &mut impl Drive,
         watchdog: &mut impl Watchdog,
     ) -> Result<(), Refusal> {
-        let (mut omega, mut current) = (0.0f32, 0.0f32);
-        for _ in 0..SAFETY_SAMPLES {
-            watchdog.feed();
-            let s = drive.step(0.0);
-            if !(s.omega.is_finite() && s.current.is_finite()) {
-                return Err(Refusal::SensorFault);
+        for _ in 0..REST_WAIT_SAMPLES / SAFETY_SAMPLES {
+            let (mut omega, mut current) = (0.0f32, 0.0f32);
+            for _ in 0..SAFETY_SAMPLES {
+                watchdog.feed();
+                let s = drive.step(0.0);
+                if !(s.omega.is_finite() && s.current.is_finite()) {
+                    return Err(Refusal::SensorFault);
+                }
+                omega += s.omega;
+                current += s.current;
             }
-            omega += s.omega;
-            current += s.current;
+            let n = SAFETY_SAMPLES as f32;
+            if (omega / n).abs() <= 0.02 * self.limits.speed {
+                if (current / n).abs() > 0.02 * self.limits.current {
+                    return Err(Refusal::SensorFault);
+                }
+                return Ok(());
+            }
         }
-        let n = SAFETY_SAMPLES as f32;
-        if (current / n).abs() > 0.02 * self.limits.current {
-            return Err(Refusal::SensorFault);
-        }
-        if (omega / n).abs() > 0.02 * self.limits.speed {
-            return Err(Refusal::NotAtRest);
-        }
-        Ok(())
+        Err(Refusal::NotAtRest)
     }
 
     /// Self-commissioning: safety checks, then a bounded experiment (seed Section 6 speed
@@ -591,7 +597,7 @@ mod tests {
         let mut store = RecordStore::<SAMPLES>::new();
         let mut service = Service::new(&mut store, LIMITS);
         let mut plant = seed_plant();
-        plant.current_offset = 2.0;
+        plant.offset.current = 2.0;
         let mut hw = hardware(plant);
         let end = JobEnd::Refused(Refusal::SensorFault);
         assert_eq!(service.boot(&mut hw), Boot::NotCommissioned(end));
@@ -601,6 +607,33 @@ mod tests {
             hw.link.sent,
             vec![BoardMessage::Refused(Refusal::SensorFault)]
         );
+    }
+
+    #[test]
+    fn a_motor_that_never_comes_to_rest_is_not_driven() {
+        let mut store = RecordStore::<SAMPLES>::new();
+        let mut service = Service::new(&mut store, LIMITS);
+        let mut plant = seed_plant();
+        plant.offset.omega = 50.0;
+        let mut hw = hardware(plant);
+        let end = JobEnd::Refused(Refusal::NotAtRest);
+        assert_eq!(service.boot(&mut hw), Boot::NotCommissioned(end));
+        assert_eq!(hw.params.0, None);
+    }
+
+    #[test]
+    fn commissioning_again_waits_for_the_motor_to_stop_turning() {
+        let mut store = RecordStore::<SAMPLES>::new();
+        let mut service = Service::new(&mut store, LIMITS);
+        let mut hw = hardware(seed_plant());
+        let first = service.commission(2, &mut hw).expect("first commissioning");
+        // The experiment ends at a quarter of the voltage: the motor still turns.
+        let second = service
+            .commission(2, &mut hw)
+            .expect("second commissioning");
+        for (a, b) in first.params.iter().zip(second.params) {
+            assert!((a / b - 1.0).abs() < 0.03, "{a} vs {b}");
+        }
     }
 
     #[test]

@@ -133,21 +133,30 @@ pub fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 path")
 }
 
-/// The firmware's QEMU build (`firmware/`, its own workspace), built once per test run.
+/// The firmware's QEMU build (`firmware/`, its own workspace, `--features qemu`, in its own
+/// target directory so that the board build is not overwritten), built once per test run.
 pub fn firmware_elf() -> &'static Path {
     static ELF: OnceLock<PathBuf> = OnceLock::new();
     ELF.get_or_init(|| {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        // Cargo reads firmware/.cargo/config.toml (target, linker script) from there only.
+        // Cargo reads firmware/.cargo/config.toml (target, linker scripts) from there only.
         let status = Command::new(cargo)
             .current_dir(&dir)
             .env_remove("CARGO_TARGET_DIR")
-            .args(["build", "--quiet", "--release"])
+            .args([
+                "build",
+                "--quiet",
+                "--locked",
+                "--release",
+                "--target-dir",
+                "target/qemu",
+            ])
+            .args(["--no-default-features", "--features", "qemu"])
             .status()
             .expect("run cargo build in firmware/");
         assert!(status.success(), "firmware build failed");
-        let elf = dir.join("target/thumbv7em-none-eabihf/release/motor-id-firmware");
+        let elf = dir.join("target/qemu/thumbv7em-none-eabihf/release/motor-id-firmware");
         assert!(elf.exists(), "{} missing", elf.display());
         elf
     })
@@ -159,11 +168,18 @@ pub struct Qemu {
     child: std::process::Child,
     /// The pseudo-terminal of the board's serial port.
     pub pty: String,
+    /// Plain-text lines the firmware writes to semihosting stderr (footprint meter).
+    pub stderr: std::sync::mpsc::Receiver<String>,
 }
 
 impl Qemu {
     /// Start the firmware.
     pub fn start() -> Qemu {
+        Qemu::start_with(&[])
+    }
+
+    /// Start the firmware with extra QEMU arguments (e.g. `-icount shift=0`).
+    pub fn start_with(extra: &[&str]) -> Qemu {
         use std::io::BufRead;
         let elf = firmware_elf();
         let mut child = Command::new("qemu-system-arm")
@@ -176,29 +192,44 @@ impl Qemu {
                 "-serial",
                 "pty",
             ])
-            .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .args(extra)
+            .arg("-kernel")
             .arg(elf)
             .stdin(std::process::Stdio::null())
-            // QEMU names the pseudo-terminal on its standard output (with semihosting output).
+            // QEMU names the pseudo-terminal on its standard output, where the firmware's
+            // binary defmt log follows.
             .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
             .spawn()
             .expect("qemu-system-arm must be installed (apt-get install qemu-system-arm)");
-        let stdout = child.stdout.take().expect("piped stdout");
-        let mut lines = std::io::BufReader::new(stdout).lines();
+        let mut stdout = std::io::BufReader::new(child.stdout.take().expect("piped stdout"));
         let pty = loop {
-            let line = lines
-                .next()
-                .expect("QEMU exited before opening its serial port")
+            let mut line = Vec::new();
+            let n = stdout
+                .read_until(b'\n', &mut line)
                 .expect("read QEMU's output");
+            assert!(n > 0, "QEMU exited before opening its serial port");
+            let line = String::from_utf8_lossy(&line);
             if let Some(at) = line.find("/dev/pts/") {
                 let rest = &line[at..];
                 break rest.split_whitespace().next().unwrap_or(rest).to_string();
             }
         };
-        // Keep draining the output so that QEMU never blocks on it.
-        std::thread::spawn(move || for _ in lines {});
-        Qemu { child, pty }
+        // Keep draining both outputs so that QEMU never blocks on them.
+        std::thread::spawn(move || std::io::copy(&mut stdout, &mut std::io::sink()));
+        let stderr = std::io::BufReader::new(child.stderr.take().expect("piped stderr"));
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in stderr.lines().map_while(Result::ok) {
+                let _ = tx.send(line);
+            }
+        });
+        Qemu {
+            child,
+            pty,
+            stderr: rx,
+        }
     }
 }
 

@@ -1,6 +1,7 @@
 //! USART1 of the STM32F4 (0x4001_1000), polled. In QEMU (netduinoplus2) it needs no clock
 //! or pin set-up; on a board the clock, GPIO alternate function and baud rate come first.
 
+use crate::link::ByteSerial;
 use core::ptr::{read_volatile, write_volatile};
 
 const BASE: usize = 0x4001_1000;
@@ -23,9 +24,10 @@ impl Usart1 {
         unsafe { write_volatile(CR1, CR1_UE | CR1_TE | CR1_RE) };
         Usart1(())
     }
+}
 
-    /// Send one byte, waiting for room.
-    pub fn write(&mut self, byte: u8) {
+impl ByteSerial for Usart1 {
+    fn write(&mut self, byte: u8) {
         // SAFETY: see `new`.
         unsafe {
             while read_volatile(SR) & SR_TXE == 0 {}
@@ -33,8 +35,7 @@ impl Usart1 {
         }
     }
 
-    /// A received byte, if any.
-    pub fn read(&mut self) -> Option<u8> {
+    fn read(&mut self) -> Option<u8> {
         // SAFETY: see `new`.
         unsafe { (read_volatile(SR) & SR_RXNE != 0).then(|| read_volatile(DR) as u8) }
     }

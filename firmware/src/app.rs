@@ -1,0 +1,80 @@
+//! The application both builds run: power-up (commission when no valid parameters are
+//! stored, otherwise straight into service), then the service loop answering the host. Its
+//! logic is `motor_id_shared::service`; this module adds the record buffer, the limits, the
+//! status LED and the log lines.
+
+use motor_id_shared::service::{
+    Boot, Drive, Hardware, JobEnd, Limits, Link, ParamStore, RecordStore, Service, Watchdog,
+};
+
+/// Longest record the board holds (2,000 samples of voltage, speed and current: 24 KB).
+pub const MAX_SAMPLES: usize = 2000;
+
+/// Limits of the commissioning experiment (the seed paper's 50 V motor; set them for yours).
+pub const LIMITS: Limits = Limits {
+    voltage: 50.0,
+    current: 40.0,
+    speed: 500.0,
+};
+
+/// What the status LED shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+pub enum State {
+    /// Lit: valid parameters (stored or just commissioned), in service.
+    InService,
+    /// Dark: no valid parameters (commissioning failed or was aborted): waiting for the host.
+    NoParameters,
+}
+
+/// The status LED.
+pub trait StatusLed {
+    /// Show `state`.
+    fn show(&mut self, state: State);
+}
+
+/// Run the application forever.
+pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
+    mut hw: Hardware<L, D, P, W>,
+    mut led: impl StatusLed,
+) -> ! {
+    let store: &'static mut RecordStore<MAX_SAMPLES> =
+        cortex_m::singleton!(: RecordStore<MAX_SAMPLES> = RecordStore::new())
+            .expect("run is entered once");
+    let mut service = Service::new(store, LIMITS);
+    led.show(State::NoParameters);
+    defmt::info!("motor-id firmware: power-up");
+    let state = match service.boot(&mut hw) {
+        Boot::InService(r) => {
+            defmt::info!(
+                "valid parameters stored (rmse {} rad/s): in service",
+                r.rmse_omega
+            );
+            State::InService
+        }
+        Boot::Commissioned(r) => {
+            defmt::info!(
+                "commissioned: ra={} la={} j={} b={} kv={}, rmse {} rad/s, {} evaluations; stored",
+                r.params[0],
+                r.params[1],
+                r.params[2],
+                r.params[3],
+                r.params[4],
+                r.rmse_omega,
+                r.evaluations
+            );
+            State::InService
+        }
+        Boot::NotCommissioned(JobEnd::Aborted) => {
+            defmt::warn!("commissioning aborted by the host: no parameters");
+            State::NoParameters
+        }
+        Boot::NotCommissioned(JobEnd::Refused(why)) => {
+            defmt::warn!("commissioning failed ({}): no parameters", why);
+            State::NoParameters
+        }
+    };
+    led.show(state);
+    loop {
+        service.poll(&mut hw);
+    }
+}

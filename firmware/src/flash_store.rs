@@ -1,0 +1,38 @@
+//! Parameters in non-volatile memory: the record of `motor_id_shared::stored` (magic,
+//! layout version, CRC) in one flash sector of the board, or in RAM for QEMU.
+
+use motor_id_shared::protocol::MotorReport;
+use motor_id_shared::service::ParamStore;
+use motor_id_shared::stored::{self, STORED_LEN};
+
+/// The bytes of a parameter sector.
+pub trait ParamFlash {
+    /// Read the record area.
+    fn read(&mut self) -> [u8; STORED_LEN];
+    /// Erase the sector (all bytes `0xFF`).
+    fn erase(&mut self);
+    /// Program the erased record area with `bytes`.
+    fn program(&mut self, bytes: &[u8; STORED_LEN]);
+}
+
+/// [`ParamStore`] on a [`ParamFlash`].
+pub struct FlashStore<F>(pub F);
+
+impl<F: ParamFlash> ParamStore for FlashStore<F> {
+    fn load(&mut self) -> Option<MotorReport> {
+        stored::decode(&self.0.read())
+    }
+
+    fn save(&mut self, report: &MotorReport) {
+        let bytes = stored::encode(report);
+        self.0.erase();
+        self.0.program(&bytes);
+        if self.0.read() != bytes {
+            defmt::error!("parameter sector did not read back what was written");
+        }
+    }
+
+    fn clear(&mut self) {
+        self.0.erase();
+    }
+}

@@ -1,0 +1,104 @@
+//! Footprint meter of the QEMU build: SysTick ticks spent from a request to identify
+//! (`Identify`, `Commission`) until its result, and the stack high-water mark (the stack is
+//! painted at reset by cortex-m-rt's `paint-stack`). Under `qemu-system-arm -icount shift=0`
+//! one instruction advances the virtual clock by 1 ns and SysTick (168 MHz) by 0.168 ticks,
+//! so the tick count is a deterministic instruction count. One plain-text line per job goes
+//! to semihosting stderr (defmt's binary log is on stdout):
+//! `footprint: ticks=T stack_bytes=S samples=N`.
+
+use core::sync::atomic::{AtomicU32, Ordering};
+use cortex_m::peripheral::{syst::SystClkSource, SYST};
+use cortex_m_rt::exception;
+use motor_id_shared::protocol::{BoardMessage, HostMessage};
+use motor_id_shared::service::Link;
+
+/// SysTick wraps (every 2^24 ticks).
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+const RELOAD: u32 = 0x00FF_FFFF;
+
+#[exception]
+fn SysTick() {
+    WRAPS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// Run SysTick freely from the core clock, counting wraps.
+pub fn start(mut syst: SYST) {
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(RELOAD);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+    // The counter keeps running when `syst` goes; reads go through `SYST::get_current`.
+}
+
+/// Ticks since [`start`].
+fn now() -> u64 {
+    loop {
+        let before = WRAPS.load(Ordering::Relaxed);
+        let current = SYST::get_current();
+        if WRAPS.load(Ordering::Relaxed) == before {
+            return before as u64 * (RELOAD as u64 + 1) + (RELOAD - current) as u64;
+        }
+    }
+}
+
+/// Deepest stack use since reset [bytes]: painted words still intact are unused.
+fn stack_high_water() -> u32 {
+    extern "C" {
+        static _stack_end: u32;
+        static _stack_start: u32;
+    }
+    // SAFETY: the linker script's stack bounds; the words between them are plain RAM.
+    unsafe {
+        let bottom = core::ptr::addr_of!(_stack_end);
+        let top = core::ptr::addr_of!(_stack_start);
+        let mut p = bottom;
+        while p < top && core::ptr::read_volatile(p) == cortex_m_rt::STACK_PAINT_VALUE {
+            p = p.add(1);
+        }
+        (top as u32) - (p as u32)
+    }
+}
+
+/// A link that meters the jobs it carries.
+pub struct MeteredLink<L> {
+    inner: L,
+    started: Option<u64>,
+    samples: u32,
+}
+
+impl<L> MeteredLink<L> {
+    /// Meter `inner`.
+    pub fn new(inner: L) -> Self {
+        MeteredLink {
+            inner,
+            started: None,
+            samples: 0,
+        }
+    }
+}
+
+impl<L: Link> Link for MeteredLink<L> {
+    fn send(&mut self, msg: &BoardMessage) {
+        if let (BoardMessage::Identified(_), Some(t0)) = (msg, self.started.take()) {
+            let ticks = now() - t0;
+            cortex_m_semihosting::heprintln!(
+                "footprint: ticks={} stack_bytes={} samples={}",
+                ticks,
+                stack_high_water(),
+                self.samples
+            );
+        }
+        self.inner.send(msg);
+    }
+
+    fn poll(&mut self) -> Option<HostMessage> {
+        let msg = self.inner.poll();
+        match &msg {
+            Some(HostMessage::IdentifyBegin { samples, .. }) => self.samples = *samples,
+            Some(HostMessage::Identify { .. }) => self.started = Some(now()),
+            _ => {}
+        }
+        msg
+    }
+}

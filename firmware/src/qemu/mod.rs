@@ -1,0 +1,77 @@
+//! The QEMU netduinoplus2 board layer: USART1 (no clock or pin set-up: QEMU needs none, and
+//! its RCC would make a HAL's clock set-up spin), the seed paper's motor simulated behind the
+//! [`Drive`](motor_id_shared::service::Drive) trait that the board's PWM and ADC implement,
+//! parameters in RAM (QEMU keeps no flash writes), no watchdog (QEMU has no IWDG), defmt
+//! over semihosting, and a meter of instructions and stack for the footprint report.
+
+mod meter;
+mod usart;
+
+use crate::app::{State, StatusLed};
+use crate::flash_store::{FlashStore, ParamFlash};
+use crate::link::SerialLink;
+use defmt_semihosting as _;
+use motor_id_shared::params::ModelParams;
+use motor_id_shared::plant::SimulatedPlant;
+use motor_id_shared::service::{Hardware, NoWatchdog};
+use motor_id_shared::stored::STORED_LEN;
+use panic_semihosting as _;
+
+/// Sample period of the simulated drive: 100 Hz, so that the 2,000 samples of a record span
+/// the seed motor's 20 s (seed Fig. 9).
+const DT: f32 = 0.01;
+/// Sensor noise of the simulated tacho [rad/s] and current sensor [A].
+const NOISE: (f32, f32) = (0.5, 0.02);
+/// Seed of the sensor noise.
+const NOISE_SEED: u64 = 7;
+
+/// The parameter "sector" in RAM: erased at every start, as a new board's flash is.
+pub struct RamFlash([u8; STORED_LEN]);
+
+impl ParamFlash for RamFlash {
+    fn read(&mut self) -> [u8; STORED_LEN] {
+        self.0
+    }
+    fn erase(&mut self) {
+        self.0 = [0xFF; STORED_LEN];
+    }
+    fn program(&mut self, bytes: &[u8; STORED_LEN]) {
+        // Flash programming only clears bits.
+        for (cell, b) in self.0.iter_mut().zip(bytes) {
+            *cell &= *b;
+        }
+    }
+}
+
+/// No LED on the emulated board: the state goes to the log.
+pub struct LogLed;
+
+impl StatusLed for LogLed {
+    fn show(&mut self, state: State) {
+        defmt::info!("status LED: {}", state);
+    }
+}
+
+/// The emulated board's hardware.
+pub type QemuHardware = Hardware<
+    meter::MeteredLink<SerialLink<usart::Usart1>>,
+    SimulatedPlant,
+    FlashStore<RamFlash>,
+    NoWatchdog,
+>;
+
+/// Bring up the emulated board.
+pub fn init() -> (QemuHardware, LogLed) {
+    let core = cortex_m::Peripherals::take().expect("init runs once");
+    meter::start(core.SYST);
+    let link = meter::MeteredLink::new(SerialLink::new(usart::Usart1::new()));
+    let drive = SimulatedPlant::new(&ModelParams::SEED_MOTOR, DT, NOISE.0, NOISE.1, NOISE_SEED)
+        .expect("the seed motor simulates");
+    let hw = Hardware {
+        link,
+        drive,
+        params: FlashStore(RamFlash([0xFF; STORED_LEN])),
+        watchdog: NoWatchdog,
+    };
+    (hw, LogLed)
+}
