@@ -80,7 +80,9 @@ impl<L> MeteredLink<L> {
 
 impl<L: Link> Link for MeteredLink<L> {
     fn send(&mut self, msg: &BoardMessage) {
-        if let (BoardMessage::Identified(_), Some(t0)) = (msg, self.started.take()) {
+        let done = matches!(msg, BoardMessage::Identified(_));
+        if let Some(t0) = self.started.filter(|_| done) {
+            self.started = None;
             let ticks = now() - t0;
             cortex_m_semihosting::heprintln!(
                 "footprint: ticks={} stack_bytes={} samples={}",

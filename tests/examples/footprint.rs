@@ -1,0 +1,136 @@
+//! Footprint and speed of the firmware on the MCU (a benchmark, not a test):
+//! `cargo run --release -p motor-id-tests --example footprint`.
+//!
+//! - Instructions per identification of a 2,000-sample record: the QEMU build under
+//!   `-icount shift=0` (1 ns of virtual time per instruction; SysTick at 168 MHz counts 0.168
+//!   per instruction), `motor-id board identify` on a simulated record (steps, 100 Hz, 20 s,
+//!   with current); the firmware reports the SysTick ticks from `Identify` to the result.
+//! - Stack high-water mark: the painted stack after that identification (and the power-up
+//!   commissioning before it).
+//! - Flash and static RAM: section sizes of the release ELFs (board and QEMU builds).
+
+use motor_id_tests::{run_ok, s, simulate, Qemu};
+use object::{Object, ObjectSection, SectionFlags};
+use std::path::Path;
+use std::process::Command;
+use std::time::Duration;
+
+/// SysTick ticks per instruction under `-icount shift=0` (168 MHz, 1 ns per instruction).
+const TICKS_PER_INSTRUCTION: f64 = 0.168;
+
+/// (flash, static RAM) bytes of an ELF: allocated sections, RAM ones at 0x2000_0000.
+fn sizes(elf: &Path) -> (u64, u64) {
+    let data = std::fs::read(elf).expect("read the ELF");
+    let file = object::File::parse(&*data).expect("parse the ELF");
+    let (mut flash, mut ram) = (0, 0);
+    for section in file.sections() {
+        let alloc = match section.flags() {
+            SectionFlags::Elf { sh_flags } => sh_flags & u64::from(object::elf::SHF_ALLOC) != 0,
+            _ => false,
+        };
+        if !alloc || section.size() == 0 {
+            continue;
+        }
+        let name = section.name().unwrap_or("");
+        if section.address() >= 0x2000_0000 {
+            ram += section.size();
+            if name == ".data" {
+                flash += section.size(); // its initial values live in flash
+            }
+        } else if section.address() >= 0x0800_0000 {
+            flash += section.size();
+        }
+    }
+    (flash, ram)
+}
+
+fn board_elf() -> std::path::PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
+    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .current_dir(&dir)
+        .env_remove("CARGO_TARGET_DIR")
+        .args(["build", "--quiet", "--locked", "--release"])
+        .status()
+        .expect("cargo build in firmware/");
+    assert!(status.success(), "board build failed");
+    dir.join("target/thumbv7em-none-eabihf/release/motor-id-firmware")
+}
+
+fn main() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let csv = dir.path().join("record.csv");
+    simulate(
+        &csv,
+        &[
+            "--profile",
+            "steps",
+            "--rate",
+            "100",
+            "--duration",
+            "20",
+            "--noise-omega",
+            "0.5",
+            "--noise-current",
+            "0.02",
+            "--seed",
+            "4",
+        ],
+    );
+    let q = Qemu::start_with(&["-icount", "shift=0"]);
+    let json = dir.path().join("board.json");
+    run_ok(&[
+        "board",
+        "--port",
+        &q.pty,
+        "--timeout",
+        "60",
+        "--json",
+        s(&json),
+        "-q",
+        "identify",
+        s(&csv),
+    ]);
+    let line = loop {
+        let line = q
+            .stderr
+            .recv_timeout(Duration::from_secs(30))
+            .expect("the firmware's footprint line");
+        if line.starts_with("footprint:") {
+            break line;
+        }
+    };
+    let field = |key: &str| -> f64 {
+        line.split_whitespace()
+            .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('='))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("{key} missing in {line:?}"))
+    };
+    let report = motor_id_tests::json(&json);
+    let instructions = field("ticks") / TICKS_PER_INSTRUCTION;
+    println!("| quantity | value | target |");
+    println!("|---|---|---|");
+    println!(
+        "| instructions per identification ({} samples, with current, {} evaluations) | {:.1} M | <= 40 M |",
+        field("samples"),
+        report["evaluations"],
+        instructions / 1e6
+    );
+    println!(
+        "| stack high-water mark (power-up commissioning + identification) | {} B | <= 8 KB |",
+        field("stack_bytes")
+    );
+    for (name, elf) in [
+        ("board", board_elf()),
+        ("qemu", motor_id_tests::firmware_elf().to_path_buf()),
+    ] {
+        let (flash, ram) = sizes(&elf);
+        println!(
+            "| flash, {name} build | {:.1} KB | <= 96 KB |",
+            flash as f64 / 1024.0
+        );
+        println!(
+            "| static RAM, {name} build | {:.1} KB | <= 48 KB |",
+            ram as f64 / 1024.0
+        );
+    }
+}
