@@ -201,6 +201,15 @@ fn abort_requested(link: &mut impl Link) -> bool {
     }
 }
 
+/// Report a job's end on the link and return it as the error.
+fn fail<T>(end: JobEnd, link: &mut impl Link) -> Result<T, JobEnd> {
+    link.send(&match end {
+        JobEnd::Aborted => BoardMessage::Aborted,
+        JobEnd::Refused(r) => BoardMessage::Refused(r),
+    });
+    Err(end)
+}
+
 impl<'s, const N: usize> Service<'s, N> {
     /// A service using `store` for records, within `limits` when commissioning.
     pub fn new(store: &'s mut RecordStore<N>, limits: Limits) -> Self {
@@ -380,15 +389,7 @@ impl<'s, const N: usize> Service<'s, N> {
             }
             Err(_) => JobEnd::Refused(Refusal::InvalidRecord),
         };
-        self.fail(end, &mut hw.link)
-    }
-
-    fn fail<T>(&self, end: JobEnd, link: &mut impl Link) -> Result<T, JobEnd> {
-        link.send(&match end {
-            JobEnd::Aborted => BoardMessage::Aborted,
-            JobEnd::Refused(r) => BoardMessage::Refused(r),
-        });
-        Err(end)
+        fail(end, &mut hw.link)
     }
 
     /// Safety checks before any voltage is applied, at 0 V: the sensors read finite values;
@@ -434,7 +435,7 @@ impl<'s, const N: usize> Service<'s, N> {
     ) -> Result<MotorReport, JobEnd> {
         if let Err(r) = self.safety_checks(&mut hw.drive, &mut hw.watchdog) {
             hw.drive.stop();
-            return self.fail(JobEnd::Refused(r), &mut hw.link);
+            return fail(JobEnd::Refused(r), &mut hw.link);
         }
         let dt = hw.drive.dt();
         let experiment = Experiment {
@@ -459,7 +460,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 && sample.omega.abs() <= self.limits.speed;
             if !within {
                 hw.drive.stop();
-                return self.fail(JobEnd::Refused(Refusal::Trip), &mut hw.link);
+                return fail(JobEnd::Refused(Refusal::Trip), &mut hw.link);
             }
             s.v[k] = v;
             s.omega[k] = sample.omega;
@@ -474,7 +475,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 });
                 if abort_requested(&mut hw.link) {
                     hw.drive.stop();
-                    return self.fail(JobEnd::Aborted, &mut hw.link);
+                    return fail(JobEnd::Aborted, &mut hw.link);
                 }
             }
         }

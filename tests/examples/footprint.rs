@@ -9,10 +9,9 @@
 //!   commissioning before it).
 //! - Flash and static RAM: section sizes of the release ELFs (board and QEMU builds).
 
-use motor_id_tests::{run_ok, s, simulate, Qemu};
+use motor_id_tests::{board_record, build_firmware, run_ok, s, Qemu};
 use object::{Object, ObjectSection, SectionFlags};
 use std::path::Path;
-use std::process::Command;
 use std::time::Duration;
 
 /// SysTick ticks per instruction under `-icount shift=0` (168 MHz, 1 ns per instruction).
@@ -44,38 +43,9 @@ fn sizes(elf: &Path) -> (u64, u64) {
     (flash, ram)
 }
 
-fn board_elf() -> std::path::PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
-    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-        .current_dir(&dir)
-        .env_remove("CARGO_TARGET_DIR")
-        .args(["build", "--quiet", "--locked", "--release"])
-        .status()
-        .expect("cargo build in firmware/");
-    assert!(status.success(), "board build failed");
-    dir.join("target/thumbv7em-none-eabihf/release/motor-id-firmware")
-}
-
 fn main() {
     let dir = tempfile::tempdir().expect("temporary directory");
-    let csv = dir.path().join("record.csv");
-    simulate(
-        &csv,
-        &[
-            "--profile",
-            "steps",
-            "--rate",
-            "100",
-            "--duration",
-            "20",
-            "--noise-omega",
-            "0.5",
-            "--noise-current",
-            "0.02",
-            "--seed",
-            "4",
-        ],
-    );
+    let csv = board_record(dir.path());
     let q = Qemu::start_with(&["-icount", "shift=0"]);
     let json = dir.path().join("board.json");
     run_ok(&[
@@ -120,7 +90,7 @@ fn main() {
         field("stack_bytes")
     );
     for (name, elf) in [
-        ("board", board_elf()),
+        ("board", build_firmware(&[], "target")),
         ("qemu", motor_id_tests::firmware_elf().to_path_buf()),
     ] {
         let (flash, ram) = sizes(&elf);

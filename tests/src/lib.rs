@@ -90,6 +90,30 @@ pub const SEED_START: &[&str] = &[
     "0.2",
 ];
 
+/// A record for the board: 2,000 samples of the seed's motor (steps, 100 Hz, 20 s) with
+/// speed and current noise, written to `dir/board-record.csv`.
+pub fn board_record(dir: &Path) -> PathBuf {
+    let csv = dir.join("board-record.csv");
+    simulate(
+        &csv,
+        &[
+            "--profile",
+            "steps",
+            "--rate",
+            "100",
+            "--duration",
+            "20",
+            "--noise-omega",
+            "0.5",
+            "--noise-current",
+            "0.02",
+            "--seed",
+            "4",
+        ],
+    );
+    csv
+}
+
 /// `motor-id simulate ARGS --out OUT`.
 pub fn simulate(out: &Path, args: &[&str]) {
     let mut all = vec!["simulate"];
@@ -133,32 +157,43 @@ pub fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 path")
 }
 
-/// The firmware's QEMU build (`firmware/`, its own workspace, `--features qemu`, in its own
-/// target directory so that the board build is not overwritten), built once per test run.
+/// Build the firmware (`firmware/`, its own workspace) in release with `args` (features),
+/// in `firmware/<target_dir>`; returns the ELF.
+pub fn build_firmware(args: &[&str], target_dir: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    // Cargo reads firmware/.cargo/config.toml (target, linker scripts) from there only.
+    let status = Command::new(cargo)
+        .current_dir(&dir)
+        .env_remove("CARGO_TARGET_DIR")
+        .args([
+            "build",
+            "--quiet",
+            "--locked",
+            "--release",
+            "--target-dir",
+            target_dir,
+        ])
+        .args(args)
+        .status()
+        .expect("run cargo build in firmware/");
+    assert!(status.success(), "firmware build {args:?} failed");
+    let elf = dir
+        .join(target_dir)
+        .join("thumbv7em-none-eabihf/release/motor-id-firmware");
+    assert!(elf.exists(), "{} missing", elf.display());
+    elf
+}
+
+/// The firmware's QEMU build (`--features qemu`, in its own target directory so that the
+/// board build is not overwritten), built once per test run.
 pub fn firmware_elf() -> &'static Path {
     static ELF: OnceLock<PathBuf> = OnceLock::new();
     ELF.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        // Cargo reads firmware/.cargo/config.toml (target, linker scripts) from there only.
-        let status = Command::new(cargo)
-            .current_dir(&dir)
-            .env_remove("CARGO_TARGET_DIR")
-            .args([
-                "build",
-                "--quiet",
-                "--locked",
-                "--release",
-                "--target-dir",
-                "target/qemu",
-            ])
-            .args(["--no-default-features", "--features", "qemu"])
-            .status()
-            .expect("run cargo build in firmware/");
-        assert!(status.success(), "firmware build failed");
-        let elf = dir.join("target/qemu/thumbv7em-none-eabihf/release/motor-id-firmware");
-        assert!(elf.exists(), "{} missing", elf.display());
-        elf
+        build_firmware(
+            &["--no-default-features", "--features", "qemu"],
+            "target/qemu",
+        )
     })
 }
 

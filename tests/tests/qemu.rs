@@ -3,31 +3,9 @@
 
 use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::protocol::{BoardMessage, HostMessage, Refusal, CHUNK, PROTOCOL_VERSION};
-use motor_id_tests::{json, run, run_ok, s, simulate, Qemu};
+use motor_id_tests::{board_record, json, run, run_ok, s, Qemu};
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
-
-fn record(dir: &tempfile::TempDir) -> std::path::PathBuf {
-    let csv = dir.path().join("rec.csv");
-    simulate(
-        &csv,
-        &[
-            "--profile",
-            "steps",
-            "--rate",
-            "100",
-            "--duration",
-            "20",
-            "--noise-omega",
-            "0.5",
-            "--noise-current",
-            "0.02",
-            "--seed",
-            "4",
-        ],
-    );
-    csv
-}
 
 #[test]
 fn hello_and_version() {
@@ -43,7 +21,7 @@ fn hello_and_version() {
 fn board_identify_is_bit_identical_to_host_identify() {
     let q = Qemu::start();
     let dir = tempfile::tempdir().unwrap();
-    let csv = record(&dir);
+    let csv = board_record(dir.path());
     let (board, host) = (dir.path().join("board.json"), dir.path().join("host.json"));
     run_ok(&[
         "board",
@@ -176,7 +154,7 @@ impl Raw {
 fn abort_mid_identification_and_the_board_answers_again() {
     let q = Qemu::start();
     let dir = tempfile::tempdir().unwrap();
-    let csv = record(&dir);
+    let csv = board_record(dir.path());
     let text = std::fs::read_to_string(&csv).unwrap();
     let rows: Vec<Vec<f32>> = text
         .lines()
