@@ -26,6 +26,10 @@
 //!   `TowardsBest`, `Y + w (Best - Y)` with `w = W1 U(0, 1)` per dimension, which converges
 //!   (DESIGN.md: median 14,600 evaluations to the noise floor instead of never in 40,100).
 //! - Non-finite costs are `INFINITY`: such candidates are rejected, never a crash.
+//! - The cost function is told the cost a candidate must beat (its parent's; `INFINITY` for
+//!   the initial population) and may stop as soon as it knows the candidate cannot, returning
+//!   any value not below it: the decision, and so the whole run, is the same, and a record
+//!   fit abandons most poor candidates part-way ([`crate::objective::Objective::fitness_below`]).
 //! - Evaluations: `N` at start, then `N` per iteration (`2 N` with the soil step), so the
 //!   seed's settings spend `100 + 200 * 200 = 40,100`.
 
@@ -143,7 +147,7 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
         cfg: FfoConfig,
         dim: usize,
         seed: u64,
-        cost: impl FnMut(&[f32]) -> f32,
+        cost: impl FnMut(&[f32], f32) -> f32,
     ) -> Result<Self, Error> {
         Self::with_start(cfg, dim, seed, None, cost)
     }
@@ -155,7 +159,7 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
         dim: usize,
         seed: u64,
         start: Option<&[f32]>,
-        mut cost: impl FnMut(&[f32]) -> f32,
+        mut cost: impl FnMut(&[f32], f32) -> f32,
     ) -> Result<Self, Error> {
         let pop_n = cfg.population();
         let valid = cfg.sections >= 1
@@ -190,7 +194,7 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
                     f.pop[0][d] = s[d].clamp(0.0, 1.0);
                 }
             }
-            f.cost[m] = sanitize(cost(&f.pop[m][..dim]));
+            f.cost[m] = sanitize(cost(&f.pop[m][..dim], f32::INFINITY));
             f.evaluations += 1;
         }
         Ok(f)
@@ -240,7 +244,7 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
     }
 
     /// One iteration (steps 1-5 of the module doc). Returns the progress after it.
-    pub fn step(&mut self, mut cost: impl FnMut(&[f32]) -> f32) -> FfoProgress {
+    pub fn step(&mut self, mut cost: impl FnMut(&[f32], f32) -> f32) -> FfoProgress {
         let k = self.cfg.sections;
         let n = self.cfg.per_section;
         let pop_n = self.cfg.population();
@@ -324,7 +328,12 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
     }
 
     /// 5. Clamp, evaluate, keep if better.
-    fn try_replace(&mut self, m: usize, mut cand: [f32; D], cost: &mut impl FnMut(&[f32]) -> f32) {
+    fn try_replace(
+        &mut self,
+        m: usize,
+        mut cand: [f32; D],
+        cost: &mut impl FnMut(&[f32], f32) -> f32,
+    ) {
         for x in cand.iter_mut().take(self.dim) {
             *x = if x.is_finite() {
                 x.clamp(0.0, 1.0)
@@ -332,7 +341,7 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
                 0.5
             };
         }
-        let c = sanitize(cost(&cand[..self.dim]));
+        let c = sanitize(cost(&cand[..self.dim], self.cost[m]));
         self.evaluations += 1;
         if c < self.cost[m] {
             self.pop[m] = cand;
@@ -353,8 +362,36 @@ fn sanitize(c: f32) -> f32 {
 mod tests {
     use super::*;
 
-    fn sphere(x: &[f32]) -> f32 {
+    fn sphere(x: &[f32], _bound: f32) -> f32 {
         x.iter().map(|v| (v - 0.3) * (v - 0.3)).sum()
+    }
+
+    #[test]
+    fn a_cost_that_gives_up_above_the_bound_changes_nothing() {
+        let calls = core::cell::Cell::new(0u32);
+        let gives_up = |x: &[f32], bound: f32| {
+            let c = sphere(x, bound);
+            if c >= bound {
+                calls.set(calls.get() + 1);
+                f32::INFINITY
+            } else {
+                c
+            }
+        };
+        let run = |cost: &dyn Fn(&[f32], f32) -> f32| {
+            let mut f = Ffo::<100, 5>::new(FfoConfig::SEED, 5, 4, cost).unwrap();
+            for _ in 0..30 {
+                f.step(cost);
+            }
+            (0..100)
+                .map(|r| {
+                    let (x, c) = f.ranked(r);
+                    (x.to_vec(), c)
+                })
+                .collect::<std::vec::Vec<_>>()
+        };
+        assert_eq!(run(&gives_up), run(&sphere));
+        assert!(calls.get() > 1000, "gave up only {} times", calls.get());
     }
 
     #[test]
@@ -387,7 +424,7 @@ mod tests {
 
     #[test]
     fn same_seed_same_result_and_nan_is_rejected() {
-        let nan_half = |x: &[f32]| if x[0] > 0.5 { f32::NAN } else { sphere(x) };
+        let nan_half = |x: &[f32], b: f32| if x[0] > 0.5 { f32::NAN } else { sphere(x, b) };
         let run = |seed| {
             let mut f = Ffo::<16, 3>::new(FfoConfig::QUICK, 3, seed, nan_half).unwrap();
             while !f.done() {

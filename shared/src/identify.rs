@@ -303,7 +303,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
     /// members until one reaches the noise floor or the restarts are spent.
     fn search(&mut self, seed_point: Option<&[f32]>) -> Result<(), Error> {
         let (objective, space) = (self.objective, self.space);
-        let fitness = |u: &[f32]| objective.fitness(space, u);
+        let fitness = |u: &[f32], bound: f32| objective.fitness_below(space, u, bound);
         let cfg = self.cfg;
         let mut ffo = Ffo::<MAX_POPULATION, MAX_FREE>::with_start(
             cfg.ffo,

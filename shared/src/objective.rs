@@ -14,6 +14,9 @@ use crate::space::{Space, MAX_FREE};
 
 /// Samples summed in f32 before the partial sum is added to the f64 total.
 const BLOCK: usize = 64;
+/// Samples between checks whether a candidate can be abandoned ([`Partial`]; a multiple of
+/// [`BLOCK`]: the check costs a few f64 operations, in software on the board).
+const CHECK_EVERY: usize = 4 * BLOCK;
 
 /// Goodness of fit of one parameter set.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,12 +133,26 @@ impl<'r, 'a> Objective<'r, 'a> {
     /// (a rejected candidate, never a crash). The initial speed of each record is the
     /// least-squares one for `p` (see [`RecordSums`]).
     pub fn cost(&self, p: &ModelParams) -> Option<Cost> {
+        self.cost_below(p, f64::INFINITY).ok()?
+    }
+
+    /// [`Objective::cost`], abandoned as soon as the weighted SSE is known to reach
+    /// `sse_limit` (`Err(())`; exact: the partial sums only grow, see [`Partial`]).
+    fn cost_below(&self, p: &ModelParams, sse_limit: f64) -> Result<Option<Cost>, ()> {
         let mut totals = Totals::default();
         for r in self.records {
-            let sums = self.record_sums(r, p)?;
+            let partial = Partial {
+                limit: sse_limit,
+                omega_sq: totals.omega_sq,
+                current_sq: totals.current_sq,
+                w2: (self.current_weight as f64) * (self.current_weight as f64),
+            };
+            let Some(sums) = self.record_sums(r, p, &partial)? else {
+                return Ok(None);
+            };
             totals.add(&sums.finish(self.current_weight, 0));
         }
-        totals.cost(self)
+        Ok(totals.cost(self))
     }
 
     /// Simulate record `index` with `p` from the least-squares initial speed the cost uses,
@@ -149,7 +166,11 @@ impl<'r, 'a> Objective<'r, 'a> {
     ) -> Result<(), Error> {
         let r = self.records.get(index).ok_or(Error::NoRecords)?;
         let (init, _) = self.initial_pair(r, p);
-        let sums = self.record_sums(r, p).ok_or(Error::NoFiniteCandidate)?;
+        let sums = self
+            .record_sums(r, p, &Partial::UNBOUNDED)
+            .ok()
+            .flatten()
+            .ok_or(Error::NoFiniteCandidate)?;
         let shift = sums.finish(self.current_weight, 0).shift;
         let best = InitialState {
             omega: init.omega + shift,
@@ -167,32 +188,74 @@ impl<'r, 'a> Objective<'r, 'a> {
         )
     }
 
-    /// Residual sums of record `r` simulated with `p` (no Jacobian).
-    fn record_sums(&self, r: &Record, p: &ModelParams) -> Option<RecordSums> {
+    /// Residual sums of record `r` simulated with `p` (no Jacobian); `Err(())` once the
+    /// SSE reaches the limit of `partial`.
+    fn record_sums(
+        &self,
+        r: &Record,
+        p: &ModelParams,
+        partial: &Partial,
+    ) -> Result<Option<RecordSums>, ()> {
         let (init, shifted) = self.initial_pair(r, p);
-        let mut sim = Simulator::new(p, r.dt, init).ok()?;
-        let mut sim_s = match shifted {
-            Some(s) => Some(Simulator::new(p, r.dt, s).ok()?),
-            None => None,
+        let Ok(mut sim) = Simulator::new(p, r.dt, init) else {
+            return Ok(None);
         };
-        let mut sums = RecordSums::default();
-        for k in 0..r.len() {
-            let y = sim.reading();
-            let ys = sim_s.as_ref().map_or(y, Simulator::reading);
-            sums.add_sample(r, k, y, ys, self.current_weight, &[], &[]);
-            let (v, tl, w) = (r.v[k], r.load_at(k), r.angle_rate(k));
-            sim.advance_tracking(v, tl, w);
-            if let Some(s) = sim_s.as_mut() {
-                s.advance_tracking(v, tl, w);
+        let with_current = r.current.is_some() && self.current_weight > 0.0;
+        let mut sums = RecordSums::new(0, with_current, shifted.is_some());
+        let tracks = sim.tracks_angle();
+        let w = self.current_weight;
+        match shifted {
+            // A record that starts at rest: no initial speed to project out, and the SSE
+            // grows monotonically, so a candidate can be abandoned early.
+            None => {
+                for k in 0..r.len() {
+                    sums.add_residuals(r, k, sim.reading(), w);
+                    if sums.end_sample()
+                        && k % CHECK_EVERY == CHECK_EVERY - 1
+                        && partial.reached(&sums)
+                    {
+                        return Err(());
+                    }
+                    let rate = if tracks { r.angle_rate(k) } else { 0.0 };
+                    sim.advance_tracking(r.v[k], r.load_at(k), rate);
+                }
+            }
+            Some(s) => {
+                let Ok(mut sim_s) = Simulator::new(p, r.dt, s) else {
+                    return Ok(None);
+                };
+                for k in 0..r.len() {
+                    let y = sim.reading();
+                    sums.add_residuals(r, k, y, w);
+                    sums.add_shift_response(r, k, y, sim_s.reading(), w, &[], &[]);
+                    sums.end_sample();
+                    let (v, tl) = (r.v[k], r.load_at(k));
+                    let rate = if tracks { r.angle_rate(k) } else { 0.0 };
+                    sim.advance_tracking(v, tl, rate);
+                    sim_s.advance_tracking(v, tl, rate);
+                }
             }
         }
-        Some(sums)
+        Ok(Some(sums))
+    }
+
+    /// Fitness at unit point `u` when it is below `bound`, otherwise any value not below
+    /// `bound` (`INFINITY` when rejected or abandoned): what a search that keeps a candidate
+    /// only if it beats `bound` needs, at a fraction of the simulation for poor candidates.
+    pub fn fitness_below(&self, space: &Space, u: &[f32], bound: f32) -> f32 {
+        // fitness = sqrt(sse / n) >= bound whenever sse >= bound^2 n (1 + 1e-9): the margin
+        // covers the rounding of the division, the square root and the cast to f32.
+        let residuals = (self.samples() * self.residuals_per_sample()) as f64;
+        let limit = (bound as f64) * (bound as f64) * residuals * (1.0 + 1e-9);
+        match self.cost_below(&space.params(u), limit) {
+            Ok(Some(c)) => c.fitness(),
+            _ => f32::INFINITY,
+        }
     }
 
     /// Fitness ([`Cost::fitness`]) at unit point `u` of `space`, `INFINITY` if rejected.
     pub fn fitness(&self, space: &Space, u: &[f32]) -> f32 {
-        self.cost(&space.params(u))
-            .map_or(f32::INFINITY, |c| c.fitness())
+        self.fitness_below(space, u, f32::INFINITY)
     }
 
     /// Normal equations at unit point `u` by finite differences of step `h` in unit
@@ -248,10 +311,11 @@ impl<'r, 'a> Objective<'r, 'a> {
                 let (init_p, _) = self.initial_pair(r, p);
                 sims.push(Simulator::new(p, r.dt, init_p).ok()?).ok()?;
             }
-            let mut sums = RecordSums::default();
+            let tracks = sim0.tracks_angle() || sims.iter().any(Simulator::tracks_angle);
+            let with_current = r.current.is_some() && w > 0.0;
+            let mut sums = RecordSums::new(dim, with_current, sim_s.is_some());
             for k in 0..r.len() {
                 let y0 = sim0.reading();
-                let ys = sim_s.as_ref().map_or(y0, Simulator::reading);
                 let read = |i: usize| if i == NOMINAL { y0 } else { sims[i].reading() };
                 let mut col_w = [0.0f32; MAX_FREE];
                 let mut col_i = [0.0f32; MAX_FREE];
@@ -262,14 +326,21 @@ impl<'r, 'a> Objective<'r, 'a> {
                     col_w[d] = -(a.omega - b.omega) / steps[d];
                     col_i[d] = -w * (a.current - b.current) / steps[d];
                 }
-                sums.add_sample(r, k, y0, ys, w, &col_w[..dim], &col_i[..dim]);
-                let (v, tl, w) = (r.v[k], r.load_at(k), r.angle_rate(k));
-                sim0.advance_tracking(v, tl, w);
+                let (col_w, col_i) = (&col_w[..dim], &col_i[..dim]);
+                let (rw, ri) = sums.add_residuals(r, k, y0, w);
+                sums.add_jacobian(rw, ri, col_w, col_i);
+                if let Some(s) = sim_s.as_ref() {
+                    sums.add_shift_response(r, k, y0, s.reading(), w, col_w, col_i);
+                }
+                sums.end_sample();
+                let (v, tl) = (r.v[k], r.load_at(k));
+                let rate = if tracks { r.angle_rate(k) } else { 0.0 };
+                sim0.advance_tracking(v, tl, rate);
                 if let Some(s) = sim_s.as_mut() {
-                    s.advance_tracking(v, tl, w);
+                    s.advance_tracking(v, tl, rate);
                 }
                 for s in sims.iter_mut() {
-                    s.advance_tracking(v, tl, w);
+                    s.advance_tracking(v, tl, rate);
                 }
             }
             totals.add(&sums.finish(w, dim));
@@ -304,8 +375,18 @@ const SHIFT: f32 = 1.0;
 /// least-squares shift is `hr / hh`, and the projected sums are
 /// `sse - hr^2/hh`, `J^T J - (J^T h)(h^T J)/hh`, `J^T r - (J^T h) hr/hh`: all of them
 /// running sums, so no record-length buffer is needed.
-#[derive(Clone, Copy, Debug, Default)]
+///
+/// Every sum is an [`Accumulator`]; all of them take one term per sample, so they share one
+/// sample count and flush their f32 blocks together (only the sums in use: the leading
+/// `dim` Jacobian entries, the current sums when current is fitted).
+#[derive(Clone, Copy, Debug)]
 struct RecordSums {
+    dim: usize,
+    with_current: bool,
+    /// The record's initial speed is projected out (the `h` sums are in use).
+    with_shift: bool,
+    /// Samples in the current blocks.
+    count: usize,
     omega_sq: Accumulator,
     current_sq: Accumulator,
     h_omega_r: Accumulator,
@@ -327,11 +408,86 @@ struct RecordTotals {
     shift: f32,
 }
 
+/// The weighted SSE of the records before this one and the limit at which a cost
+/// evaluation is abandoned ([`Objective::fitness_below`]). Every term added to the sums of a
+/// record that starts at rest is a square, and f32 and f64 sums of non-negative terms
+/// never decrease, so once the partial SSE reaches the limit the full one does too.
+struct Partial {
+    limit: f64,
+    omega_sq: f64,
+    current_sq: f64,
+    /// Square of the current weight.
+    w2: f64,
+}
+
+impl Partial {
+    /// No limit.
+    const UNBOUNDED: Partial = Partial {
+        limit: f64::INFINITY,
+        omega_sq: 0.0,
+        current_sq: 0.0,
+        w2: 0.0,
+    };
+
+    /// True when the SSE so far, with `sums` of the record being simulated, reaches the limit.
+    fn reached(&self, sums: &RecordSums) -> bool {
+        let omega_sq = self.omega_sq + sums.omega_sq.total();
+        let current_sq = self.current_sq + sums.current_sq.total();
+        omega_sq + self.w2 * current_sq >= self.limit
+    }
+}
+
 impl RecordSums {
-    /// Add sample `k`: nominal reading `y`, shifted reading `ys`, Jacobian columns of the
-    /// speed and (weighted) current residuals.
+    fn new(dim: usize, with_current: bool, with_shift: bool) -> Self {
+        let zero = Accumulator::default();
+        RecordSums {
+            dim,
+            with_current,
+            with_shift,
+            count: 0,
+            omega_sq: zero,
+            current_sq: zero,
+            h_omega_r: zero,
+            h_omega_sq: zero,
+            h_current_r: zero,
+            h_current_sq: zero,
+            jtj: [[zero; MAX_FREE]; MAX_FREE],
+            jtr: [zero; MAX_FREE],
+            jth: [zero; MAX_FREE],
+        }
+    }
+
+    /// Add the squared residuals of sample `k` for reading `y`; returns the speed residual
+    /// and the weighted current residual (0 without current).
+    fn add_residuals(&mut self, r: &Record, k: usize, y: Reading, w: f32) -> (f32, f32) {
+        let rw = r.omega[k] - y.omega;
+        self.omega_sq.add(rw * rw);
+        let ri = match r.current {
+            Some(c) if self.with_current => {
+                let ri = c[k] - y.current;
+                self.current_sq.add(ri * ri);
+                w * ri
+            }
+            _ => 0.0,
+        };
+        (rw, ri)
+    }
+
+    /// Add the Jacobian terms of one sample: columns of the speed and (weighted) current
+    /// residuals, and those residuals.
+    fn add_jacobian(&mut self, rw: f32, ri: f32, col_w: &[f32], col_i: &[f32]) {
+        for a in 0..col_w.len() {
+            for b in 0..=a {
+                self.jtj[a][b].add(col_w[a] * col_w[b] + col_i[a] * col_i[b]);
+            }
+            self.jtr[a].add(col_w[a] * rw + col_i[a] * ri);
+        }
+    }
+
+    /// Add the response `h` of sample `k` to the initial speed (nominal reading `y`, shifted
+    /// reading `ys`) and its products with the residuals and the Jacobian columns.
     #[allow(clippy::too_many_arguments)]
-    fn add_sample(
+    fn add_shift_response(
         &mut self,
         r: &Record,
         k: usize,
@@ -343,27 +499,60 @@ impl RecordSums {
     ) {
         let rw = r.omega[k] - y.omega;
         let hw = (ys.omega - y.omega) / SHIFT;
-        self.omega_sq.add(rw * rw);
         self.h_omega_r.add(hw * rw);
         self.h_omega_sq.add(hw * hw);
-        let (ri, hi) = match r.current {
-            Some(c) if w > 0.0 => {
+        let hi = match r.current {
+            Some(c) if self.with_current => {
                 let ri = c[k] - y.current;
                 let hi = (ys.current - y.current) / SHIFT;
-                self.current_sq.add(ri * ri);
                 self.h_current_r.add(hi * ri);
                 self.h_current_sq.add(hi * hi);
-                (w * ri, w * hi)
+                w * hi
             }
-            _ => (0.0, 0.0),
+            _ => 0.0,
         };
         for a in 0..col_w.len() {
-            for b in 0..=a {
-                self.jtj[a][b].add(col_w[a] * col_w[b] + col_i[a] * col_i[b]);
-            }
-            self.jtr[a].add(col_w[a] * rw + col_i[a] * ri);
             // The residual's response to the initial speed is -h.
             self.jth[a].add(-(col_w[a] * hw + col_i[a] * hi));
+        }
+    }
+
+    /// Close one sample; every [`BLOCK`] samples the blocks in use are flushed into their
+    /// f64 totals, and `true` is returned.
+    #[inline(always)]
+    fn end_sample(&mut self) -> bool {
+        self.count += 1;
+        if self.count < BLOCK {
+            return false;
+        }
+        self.flush();
+        true
+    }
+
+    #[inline(never)]
+    fn flush(&mut self) {
+        self.count = 0;
+        let dim = self.dim;
+        self.omega_sq.flush();
+        if self.with_current {
+            self.current_sq.flush();
+        }
+        if self.with_shift {
+            self.h_omega_r.flush();
+            self.h_omega_sq.flush();
+            if self.with_current {
+                self.h_current_r.flush();
+                self.h_current_sq.flush();
+            }
+        }
+        for a in 0..dim {
+            for b in 0..=a {
+                self.jtj[a][b].flush();
+            }
+            self.jtr[a].flush();
+            if self.with_shift {
+                self.jth[a].flush();
+            }
         }
     }
 
@@ -483,25 +672,72 @@ pub fn pooled_sigma<'s>(signals: impl Iterator<Item = &'s [f32]>) -> f32 {
 }
 
 /// f32 partial sums over blocks of [`BLOCK`] samples, added into an f64 total: f32 speed in
-/// the per-sample loop, f64 accuracy over long records.
+/// the per-sample loop, f64 accuracy over long records. The block count is kept by the owner
+/// ([`RecordSums`]), which flushes all its sums at once.
 #[derive(Clone, Copy, Debug, Default)]
 struct Accumulator {
     block: f32,
-    count: usize,
     total: f64,
 }
 
 impl Accumulator {
     fn add(&mut self, x: f32) {
         self.block += x;
-        self.count += 1;
-        if self.count == BLOCK {
-            self.total += self.block as f64;
-            self.block = 0.0;
-            self.count = 0;
-        }
+    }
+    fn flush(&mut self) {
+        self.total += self.block as f64;
+        self.block = 0.0;
     }
     fn total(&self) -> f64 {
         self.total + self.block as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::profile::Profile;
+    use crate::synth::Noise;
+    use crate::testkit::Owned;
+
+    #[test]
+    fn fitness_below_a_bound_is_exact_and_never_falls_below_it_when_abandoned() {
+        let noise = Noise {
+            omega: 0.5,
+            current: 0.02,
+        };
+        let mut data = Owned::seed_motor(Profile::Steps, 0.01, 2000, noise, 3);
+        // Exactly at rest at first (this noise draw starts 3.3 sigma off).
+        data.omega[0] = 0.0;
+        let at_rest = data.record(true, false);
+        // A second record that starts turning: its initial speed is projected out.
+        let turning = Record {
+            v: &data.v[700..],
+            omega: &data.omega[700..],
+            current: Some(&data.current[700..]),
+            ..at_rest
+        };
+        for records in [&[at_rest][..], &[at_rest, turning][..], &[turning][..]] {
+            let objective = Objective::new(records).unwrap();
+            let space = Space::new(&crate::space::ProblemSpec::default(), true).unwrap();
+            let mut rng = crate::rng::seeded(5);
+            let mut abandoned = 0;
+            for _ in 0..40 {
+                let u: [f32; 5] = core::array::from_fn(|_| crate::rng::unit(&mut rng));
+                let f = objective.fitness(&space, &u);
+                for bound in [0.5 * f, 0.999 * f, f, 1.001 * f, 2.0 * f, f32::INFINITY] {
+                    let g = objective.fitness_below(&space, &u, bound);
+                    if f < bound {
+                        assert_eq!(g.to_bits(), f.to_bits(), "bound {bound}, fitness {f}");
+                    } else {
+                        assert!(g >= bound, "{g} below the bound {bound} (fitness {f})");
+                        abandoned += u32::from(g == f32::INFINITY);
+                    }
+                }
+            }
+            if records[0].omega[0] == 0.0 {
+                assert!(abandoned > 0, "no candidate was abandoned early");
+            }
+        }
     }
 }

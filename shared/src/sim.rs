@@ -128,6 +128,14 @@ pub struct Simulator {
     /// Delay in samples, split into whole samples and fraction.
     delay_whole: usize,
     delay_frac: f32,
+    /// The tacho reading lags (`delay_whole` or `delay_frac` non-zero): readings go
+    /// through `ring`; otherwise the newest one is `tacho`.
+    delayed: bool,
+    /// No effect acts on the dynamics or the reading: [`Simulator::step`] takes the plain
+    /// linear step (the same arithmetic as the general one with every effect at zero).
+    plain: bool,
+    /// Newest tacho reading.
+    tacho: f32,
     current: Compensated,
     omega: Compensated,
     /// Ripple angle `ripple_cycles * theta`, wrapped to [-pi, pi].
@@ -149,19 +157,32 @@ impl Simulator {
             return Err(Error::DelayTooLong);
         }
         let delay_whole = libm::floorf(delay) as usize;
+        let delay_frac = delay - delay_whole as f32;
+        let (tc, kq, kar, vb) = (
+            p.get(ParamId::Tc),
+            p.get(ParamId::Kq),
+            p.get(ParamId::Kar),
+            p.get(ParamId::Vb),
+        );
+        let ripple_amp = p.get(ParamId::RippleAmp);
+        let delayed = delay_whole != 0 || delay_frac != 0.0;
+        let plain = tc == 0.0 && kq == 0.0 && kar == 0.0 && vb == 0.0 && ripple_amp == 0.0;
         let mut s = Simulator {
             disc,
             dt,
             kv: p.get(ParamId::Kv),
-            tc: p.get(ParamId::Tc),
-            kq: p.get(ParamId::Kq),
-            kar: p.get(ParamId::Kar),
-            vb: p.get(ParamId::Vb),
-            ripple_amp: p.get(ParamId::RippleAmp),
+            tc,
+            kq,
+            kar,
+            vb,
+            ripple_amp,
             ripple_cycles: p.get(ParamId::RippleCycles),
             ripple_phase: p.get(ParamId::RipplePhase),
             delay_whole,
-            delay_frac: delay - delay_whole as f32,
+            delay_frac,
+            delayed,
+            plain,
+            tacho: 0.0,
             current: Compensated::new(0.0),
             omega: Compensated::new(0.0),
             psi: 0.0,
@@ -196,6 +217,7 @@ impl Simulator {
         }
     }
 
+    #[inline(always)]
     fn tacho_now(&self) -> f32 {
         let w = self.omega.hi;
         if self.ripple_amp == 0.0 {
@@ -205,11 +227,14 @@ impl Simulator {
         }
     }
 
+    #[inline(always)]
     fn push_reading(&mut self) {
-        let r = self.tacho_now();
-        self.head = (self.head + 1) % RING;
-        self.ring[self.head] = r;
-        self.filled = (self.filled + 1).min(RING);
+        self.tacho = self.tacho_now();
+        if self.delayed {
+            self.head = (self.head + 1) % RING;
+            self.ring[self.head] = self.tacho;
+            self.filled = (self.filled + 1).min(RING);
+        }
     }
 
     fn ring_back(&self, n: usize) -> f32 {
@@ -218,9 +243,10 @@ impl Simulator {
     }
 
     /// What the sensors read now.
+    #[inline(always)]
     pub fn reading(&self) -> Reading {
-        let omega = if self.delay_whole == 0 && self.delay_frac == 0.0 {
-            self.ring[self.head]
+        let omega = if !self.delayed {
+            self.tacho
         } else {
             let a = self.ring_back(self.delay_whole);
             let b = self.ring_back(self.delay_whole + 1);
@@ -230,6 +256,12 @@ impl Simulator {
             omega,
             current: self.current.hi,
         }
+    }
+
+    /// True when the tacho ripple follows the rotor angle: [`Simulator::advance_tracking`]
+    /// then uses the measured speed it is given (otherwise it is ignored).
+    pub fn tracks_angle(&self) -> bool {
+        self.ripple_amp != 0.0
     }
 
     /// True shaft speed (no sensor effects).
@@ -245,11 +277,36 @@ impl Simulator {
     /// As [`Simulator::advance`], with the rotor angle of the tacho ripple advanced by the
     /// *measured* speed: the ripple follows the real rotor, whose angle a fit integrating its
     /// own (slightly wrong) speed would lose after some thousand revolutions.
+    #[inline(always)]
     pub fn advance_tracking(&mut self, v: f32, tl: f32, measured_omega: f32) {
         self.step(v, tl, Some(measured_omega));
     }
 
+    #[inline(always)]
     fn step(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
+        if self.plain {
+            self.step_plain(v, tl);
+        } else {
+            self.step_with_effects(v, tl, measured_omega);
+        }
+    }
+
+    /// Seed Eq. 5 by the exact ZOH step, no effect: the hot path of every fit without
+    /// effects, inlined into the fit loops. The same arithmetic as
+    /// [`Simulator::step_with_effects`] with every effect at zero.
+    #[inline(always)]
+    fn step_plain(&mut self, v: f32, tl: f32) {
+        let (i0, w0) = (self.current.hi, self.omega.hi);
+        let d = &self.disc;
+        self.current
+            .add(d.d[0][0] * i0 + d.d[0][1] * w0 + d.gv[0] * v + d.gt[0] * tl);
+        self.omega
+            .add(d.d[1][0] * i0 + d.d[1][1] * w0 + d.gv[1] * v + d.gt[1] * tl);
+        self.push_reading();
+    }
+
+    #[inline(never)]
+    fn step_with_effects(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         let i0 = self.current.hi;
         let w0 = self.omega.hi;
         let flux = self.flux_factor();
