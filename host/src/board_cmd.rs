@@ -2,7 +2,7 @@
 //! board (or its QEMU build) over a serial port with the frames of `motor_id_shared::frame`.
 
 use crate::csvio::OwnedRecord;
-use crate::identify_cmd::write_json;
+use crate::identify_cmd::{write_json, PipelineArg};
 use crate::progress::FitProgress;
 use crate::report::num;
 use anyhow::{anyhow, bail, Context, Result};
@@ -49,10 +49,14 @@ pub struct BoardArgs {
 pub enum BoardAction {
     /// Open a session and show the board's protocol version.
     Hello,
-    /// Stream a record to the board and identify it there.
+    /// Stream a record to the board and identify it there (the same answer, bit for bit, as
+    /// `motor-id identify` with the same seed and pipeline).
     Identify {
         /// Record CSV (t, v, omega, optional i).
         file: PathBuf,
+        /// Pipeline, as for `motor-id identify`.
+        #[arg(long, value_enum, default_value_t = PipelineArg::Default)]
+        pipeline: PipelineArg,
     },
     /// Run self-commissioning (bounded experiment, identification, store).
     Commission,
@@ -252,7 +256,7 @@ pub fn run(a: &BoardArgs) -> Result<()> {
             println!("board speaks protocol version {PROTOCOL_VERSION}, holds records of up to {max_samples} samples");
             return Ok(());
         }
-        BoardAction::Identify { file } => {
+        BoardAction::Identify { file, pipeline } => {
             let rec = OwnedRecord::read(file)?;
             if rec.len() > max_samples as usize {
                 bail!(
@@ -292,7 +296,10 @@ pub fn run(a: &BoardArgs) -> Result<()> {
                     other => refused(&other),
                 })?;
             }
-            c.send(&HostMessage::Identify { seed: a.seed })?;
+            c.send(&HostMessage::Identify {
+                seed: a.seed,
+                pipeline: (*pipeline).into(),
+            })?;
             follow_job(&mut c, a.quiet)?
         }
         BoardAction::Commission => {

@@ -9,7 +9,7 @@ use crate::simulate_cmd::{simulate, SimulateArgs};
 use crate::spec::problem;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use motor_id_shared::identify::{identify_from, Identification, IdentifyConfig};
+use motor_id_shared::identify::{identify_from, Identification, IdentifyConfig, Pipeline};
 use motor_id_shared::objective::Objective;
 use motor_id_shared::space::ProblemSpec;
 use motor_id_shared::{ModelParams, Record};
@@ -25,9 +25,14 @@ pub struct IdentifyArgs {
     pub files: Vec<PathBuf>,
     #[command(flatten)]
     pub fit: FitOptions,
-    /// Paper-faithful mode: the seed's FFO (k=4, n=25, alpha 0.4, beta 0.6, 200 iterations,
-    /// 40,100 evaluations, linear scale), no refinement.
-    #[arg(long)]
+    /// Pipeline: `default` (equation-error start, short FFO, least squares), `board` (what
+    /// a drive board runs: start and least squares, FFO only when that stays above the
+    /// noise floor) or `paper` (the seed's FFO alone).
+    #[arg(long, value_enum, default_value_t = PipelineArg::Default)]
+    pub pipeline: PipelineArg,
+    /// Paper-faithful mode, short for `--pipeline paper`: the seed's FFO (k=4, n=25,
+    /// alpha 0.4, beta 0.6, 200 iterations, 40,100 evaluations, linear scale), no refinement.
+    #[arg(long, conflicts_with = "pipeline")]
     pub paper: bool,
     /// Write the JSON report here.
     #[arg(long)]
@@ -35,6 +40,38 @@ pub struct IdentifyArgs {
     /// Write a PNG plot (measured vs fitted speed, residual, convergence) here.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+}
+
+/// The pipelines by name (`motor_id_shared::identify::Pipeline`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PipelineArg {
+    /// Equation-error start, short FFO, least squares.
+    Default,
+    /// Start and least squares; FFO only above the noise floor (the board's).
+    Board,
+    /// The seed's FFO alone.
+    Paper,
+}
+
+impl From<PipelineArg> for Pipeline {
+    fn from(p: PipelineArg) -> Pipeline {
+        match p {
+            PipelineArg::Default => Pipeline::Default,
+            PipelineArg::Board => Pipeline::Board,
+            PipelineArg::Paper => Pipeline::Paper,
+        }
+    }
+}
+
+impl IdentifyArgs {
+    /// The chosen pipeline (`--paper` or `--pipeline`).
+    pub fn pipeline(&self) -> Pipeline {
+        if self.paper {
+            Pipeline::Paper
+        } else {
+            self.pipeline.into()
+        }
+    }
 }
 
 /// Everything one identification produced.
@@ -48,14 +85,9 @@ pub struct Fit {
 }
 
 /// Identify from loaded records with the problem given on the command line.
-pub fn fit(records: &[OwnedRecord], opts: &FitOptions, paper: bool) -> Result<Fit> {
+pub fn fit(records: &[OwnedRecord], opts: &FitOptions, pipeline: Pipeline) -> Result<Fit> {
     let spec = problem(&opts.bounds, &opts.fix)?;
-    let cfg = if paper {
-        IdentifyConfig::paper_faithful(opts.seed)
-    } else {
-        IdentifyConfig::default_pipeline(opts.seed)
-    };
-    run_fit(records, opts, &spec, &cfg, None)
+    run_fit(records, opts, &spec, &pipeline.config(opts.seed), None)
 }
 
 /// Identify `spec` from loaded records with the default pipeline, starting from `initial`
@@ -106,13 +138,13 @@ fn load(files: &[PathBuf]) -> Result<Vec<OwnedRecord>> {
 /// Run `identify`.
 pub fn run(a: &IdentifyArgs) -> Result<()> {
     let records = load(&a.files)?;
-    let f = fit(&records, &a.fit, a.paper)?;
+    let pipeline = a.pipeline();
+    let f = fit(&records, &a.fit, pipeline)?;
     let samples: usize = records.iter().map(|r| r.len()).sum();
     print!("{}", summary(&f.result, &f.spec, samples, f.with_current));
     let names: Vec<String> = records.iter().map(|r| r.name()).collect();
     if let Some(path) = &a.json {
-        let mode = if a.paper { "paper" } else { "default" };
-        let json = identify_json(&f.result, &f.spec, &names, a.fit.seed, mode);
+        let json = identify_json(&f.result, &f.spec, &names, a.fit.seed, pipeline.name());
         write_json(path, &json)?;
     }
     if let Some(path) = &a.plot {
@@ -326,7 +358,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
             quiet: a.quiet,
             ..FitOptions::default()
         };
-        let f = fit(&records, &opts, false)?;
+        let f = fit(&records, &opts, Pipeline::Default)?;
         print!(
             "{}",
             summary(&f.result, &f.spec, records[0].len(), f.with_current)
@@ -335,7 +367,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
         let names = vec![csv.display().to_string()];
         write_json(
             &json,
-            &identify_json(&f.result, &f.spec, &names, a.seed, "default"),
+            &identify_json(&f.result, &f.spec, &names, a.seed, Pipeline::Default.name()),
         )?;
         let png = a.out_dir.join(format!("{stem}.png"));
         plot_fit(&png, &records, &f)?;

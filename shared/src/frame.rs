@@ -134,7 +134,10 @@ mod tests {
                 samples: 2000,
                 with_current: true,
             },
-            HostMessage::Identify { seed: 7 },
+            HostMessage::Identify {
+                seed: 7,
+                pipeline: crate::identify::Pipeline::Board,
+            },
             HostMessage::RecordChunk {
                 offset: 16,
                 v: chunk(24.0),

@@ -20,6 +20,43 @@ pub const TRACE_CAPACITY: usize = 256;
 /// next best FFO member, while restarts remain.
 const NOISE_FLOOR_FACTOR: f32 = 1.05;
 
+/// The identification pipelines, by name (the host's `--pipeline`, the board's
+/// `Identify` request).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Pipeline {
+    /// [`IdentifyConfig::default_pipeline`]: start, short FFO, least squares.
+    Default,
+    /// [`IdentifyConfig::board`]: start and least squares, FFO only above the noise floor
+    /// (what a board runs when it commissions itself).
+    Board,
+    /// [`IdentifyConfig::paper_faithful`]: the seed's FFO alone.
+    Paper,
+}
+
+impl Pipeline {
+    /// All pipelines.
+    pub const ALL: [Pipeline; 3] = [Pipeline::Default, Pipeline::Board, Pipeline::Paper];
+
+    /// The pipeline's settings with random seed `seed`.
+    pub fn config(self, seed: u64) -> IdentifyConfig {
+        match self {
+            Pipeline::Default => IdentifyConfig::default_pipeline(seed),
+            Pipeline::Board => IdentifyConfig::board(seed),
+            Pipeline::Paper => IdentifyConfig::paper_faithful(seed),
+        }
+    }
+
+    /// Name, as on the command line and in reports.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Pipeline::Default => "default",
+            Pipeline::Board => "board",
+            Pipeline::Paper => "paper",
+        }
+    }
+}
+
 /// How to identify.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IdentifyConfig {

@@ -98,6 +98,17 @@ impl LeastSquares {
     }
 }
 
+/// Rows a record contributes at most to a regression. The integrals run over every sample,
+/// but rows a few samples apart carry almost the same information (they are running
+/// integrals): every `stride`-th row is enough for a start, and each row costs a few dozen
+/// f64 operations, in software on the board.
+const ROWS_PER_RECORD: usize = 512;
+
+/// Every how many samples a record of `len` samples adds a row.
+fn row_stride(len: usize) -> usize {
+    len.div_ceil(ROWS_PER_RECORD).max(1)
+}
+
 /// Motor parameters by equation error, or `None` without current in every record or when
 /// the regression is degenerate or gives a non-positive parameter.
 pub fn equation_error(records: &[Record]) -> Option<ModelParams> {
@@ -106,11 +117,14 @@ pub fn equation_error(records: &[Record]) -> Option<ModelParams> {
         let c = r.current?;
         let dt = r.dt as f64;
         let (mut iv, mut ii, mut iw) = (0.0f64, 0.0f64, 0.0f64);
+        let stride = row_stride(r.len());
         for k in 1..r.len() {
             iv += r.v[k - 1] as f64 * dt;
             ii += 0.5 * (c[k - 1] + c[k]) as f64 * dt;
             iw += 0.5 * (r.omega[k - 1] + r.omega[k]) as f64 * dt;
-            electrical.add(&[ii, (c[k] - c[0]) as f64, iw], iv);
+            if k % stride == 0 {
+                electrical.add(&[ii, (c[k] - c[0]) as f64, iw], iv);
+            }
         }
     }
     let x = electrical.solve()?;
@@ -120,11 +134,14 @@ pub fn equation_error(records: &[Record]) -> Option<ModelParams> {
         let c = r.current?;
         let dt = r.dt as f64;
         let (mut ii, mut iw, mut it) = (0.0f64, 0.0f64, 0.0f64);
+        let stride = row_stride(r.len());
         for k in 1..r.len() {
             ii += 0.5 * (c[k - 1] + c[k]) as f64 * dt;
             iw += 0.5 * (r.omega[k - 1] + r.omega[k]) as f64 * dt;
             it += r.load_at(k - 1) as f64 * dt;
-            mechanical.add(&[(r.omega[k] - r.omega[0]) as f64, iw], kv * ii - it);
+            if k % stride == 0 {
+                mechanical.add(&[(r.omega[k] - r.omega[0]) as f64, iw], kv * ii - it);
+            }
         }
     }
     let x = mechanical.solve()?;
@@ -152,6 +169,7 @@ pub fn speed_coefficients(records: &[Record]) -> Option<(f64, f64, f64)> {
         let dt = r.dt as f64;
         // Running integrals: of w, of int w, of v, of int v, of tl, of int tl.
         let (mut iw, mut iiw, mut iv, mut iiv, mut it, mut iit) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let stride = row_stride(r.len());
         for k in 1..r.len() {
             let w_mid = 0.5 * (r.omega[k - 1] + r.omega[k]) as f64;
             iiw += (iw + 0.5 * w_mid * dt) * dt;
@@ -162,6 +180,9 @@ pub fn speed_coefficients(records: &[Record]) -> Option<(f64, f64, f64)> {
             let tl = r.load_at(k - 1) as f64;
             iit += (it + 0.5 * tl * dt) * dt;
             it += tl * dt;
+            if k % stride != 0 {
+                continue;
+            }
             let mut row = [0.0f64; MAX_FREE];
             row[0] = iiv;
             row[1] = -iw;

@@ -2,10 +2,11 @@
 //! the frames of [`crate::frame`]). A hello exchange carries [`PROTOCOL_VERSION`] so that a
 //! host and a firmware that disagree refuse politely instead of misreading each other.
 
+pub use crate::identify::Pipeline;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -45,6 +46,8 @@ pub enum HostMessage {
     Identify {
         /// Random seed of the identification.
         seed: u64,
+        /// Which pipeline (the same settings as the host's `identify --pipeline`).
+        pipeline: Pipeline,
     },
     /// Run self-commissioning now (bounded experiment, identify, store).
     Commission {

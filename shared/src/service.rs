@@ -322,13 +322,13 @@ impl<'s, const N: usize> Service<'s, N> {
                 s.len += n;
                 hw.link.send(&BoardMessage::ChunkOk { next: s.len as u32 });
             }
-            HostMessage::Identify { seed } => {
+            HostMessage::Identify { seed, pipeline } => {
                 if self.store.len != self.store.expected || self.store.len == 0 {
                     hw.link.send(&BoardMessage::Refused(Refusal::BadChunk));
                     return;
                 }
-                // The host's default pipeline, so that the board's answer is bit-identical.
-                let cfg = IdentifyConfig::default_pipeline(seed);
+                // The host's settings of the same name, so that the answer is bit-identical.
+                let cfg = pipeline.config(seed);
                 // Failures have been reported on the link.
                 let _ = self.identify_and_report(&cfg, hw, false);
             }

@@ -4,7 +4,9 @@
 //! - Instructions per identification of a 2,000-sample record: the QEMU build under
 //!   `-icount shift=0` (1 ns of virtual time per instruction; SysTick at 168 MHz counts 0.168
 //!   per instruction), `motor-id board identify` on a simulated record (steps, 100 Hz, 20 s,
-//!   with current); the firmware reports the SysTick ticks from `Identify` to the result.
+//!   with current) with the host's default pipeline and with the board's, and a
+//!   `motor-id board commission` (the board's own 2,000-sample experiment, then the board
+//!   pipeline); the firmware reports the SysTick ticks from the request to the result.
 //! - Stack high-water mark: the painted stack after that identification (and the power-up
 //!   commissioning before it).
 //! - Flash and static RAM: section sizes of the release ELFs (board and QEMU builds).
@@ -43,52 +45,64 @@ fn sizes(elf: &Path) -> (u64, u64) {
     (flash, ram)
 }
 
-fn main() {
-    let dir = tempfile::tempdir().expect("temporary directory");
-    let csv = board_record(dir.path());
-    let q = Qemu::start_with(&["-icount", "shift=0"]);
-    let json = dir.path().join("board.json");
-    run_ok(&[
-        "board",
-        "--port",
-        &q.pty,
-        "--timeout",
-        "60",
-        "--json",
-        s(&json),
-        "-q",
-        "identify",
-        s(&csv),
-    ]);
+/// The next footprint line the firmware writes: its fields by name.
+fn footprint_line(q: &Qemu) -> impl Fn(&str) -> f64 {
     let line = loop {
         let line = q
             .stderr
-            .recv_timeout(Duration::from_secs(30))
+            .recv_timeout(Duration::from_secs(120))
             .expect("the firmware's footprint line");
         if line.starts_with("footprint:") {
             break line;
         }
     };
-    let field = |key: &str| -> f64 {
+    move |key: &str| -> f64 {
         line.split_whitespace()
             .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('='))
             .and_then(|v| v.parse().ok())
             .unwrap_or_else(|| panic!("{key} missing in {line:?}"))
+    }
+}
+
+fn main() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let csv = board_record(dir.path());
+    let q = Qemu::start_with(&["-icount", "shift=0"]);
+    let json = dir.path().join("board.json");
+    let board = |args: &[&str]| {
+        let mut all = vec!["board", "--port", &q.pty, "--timeout", "120"];
+        all.extend(["--json", s(&json), "-q"]);
+        all.extend_from_slice(args);
+        run_ok(&all);
+        motor_id_tests::json(&json)
     };
-    let report = motor_id_tests::json(&json);
-    let instructions = field("ticks") / TICKS_PER_INSTRUCTION;
     println!("| quantity | value | target |");
     println!("|---|---|---|");
-    println!(
-        "| instructions per identification ({} samples, with current, {} evaluations) | {:.1} M | <= 40 M |",
-        field("samples"),
-        report["evaluations"],
-        instructions / 1e6
-    );
-    println!(
-        "| stack high-water mark (power-up commissioning + identification) | {} B | <= 8 KB |",
-        field("stack_bytes")
-    );
+    let mut stack = 0.0f64;
+    for (what, args) in [
+        (
+            "`board identify` (host's default pipeline)",
+            vec!["identify", s(&csv)],
+        ),
+        (
+            "`board identify --pipeline board` (the board's pipeline)",
+            vec!["identify", s(&csv), "--pipeline", "board"],
+        ),
+        (
+            "`board commission` (experiment + board pipeline)",
+            vec!["commission"],
+        ),
+    ] {
+        let report = board(&args);
+        let field = footprint_line(&q);
+        stack = stack.max(field("stack_bytes"));
+        println!(
+            "| instructions, {what}: 2,000 samples with current, {} evaluations | {:.1} M | <= 40 M |",
+            report["evaluations"],
+            field("ticks") / TICKS_PER_INSTRUCTION / 1e6
+        );
+    }
+    println!("| stack high-water mark (power-up commissioning and the jobs above) | {stack} B | <= 8 KB |");
     for (name, elf) in [
         ("board", build_firmware(&[], "target")),
         ("qemu", motor_id_tests::firmware_elf().to_path_buf()),

@@ -2,7 +2,9 @@
 //! `motor-id board --port <pty> ...`, plus raw frames for abort and link faults.
 
 use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
-use motor_id_shared::protocol::{BoardMessage, HostMessage, Refusal, CHUNK, PROTOCOL_VERSION};
+use motor_id_shared::protocol::{
+    BoardMessage, HostMessage, Pipeline, Refusal, CHUNK, PROTOCOL_VERSION,
+};
 use motor_id_tests::{board_record, json, run, run_ok, s, Qemu};
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
@@ -22,24 +24,30 @@ fn board_identify_is_bit_identical_to_host_identify() {
     let q = Qemu::start();
     let dir = tempfile::tempdir().unwrap();
     let csv = board_record(dir.path());
-    let (board, host) = (dir.path().join("board.json"), dir.path().join("host.json"));
-    run_ok(&[
-        "board",
-        "--port",
-        &q.pty,
-        "--seed",
-        "5",
-        "--json",
-        s(&board),
-        "-q",
-        "identify",
-        s(&csv),
-    ]);
-    run_ok(&["identify", s(&csv), "--seed", "5", "--json", s(&host), "-q"]);
-    let (b, h) = (json(&board), json(&host));
-    assert_eq!(b["params"], h["params"], "board {b} vs host {h}");
-    assert_eq!(b["rmse_omega"], h["rmse_omega"]);
-    assert_eq!(b["evaluations"], h["evaluations"]);
+    for pipeline in ["default", "board"] {
+        let board = dir.path().join(format!("board-{pipeline}.json"));
+        let host = dir.path().join(format!("host-{pipeline}.json"));
+        let mut board_args = vec!["board", "--port", &q.pty, "--seed", "5"];
+        board_args.extend(["--json", s(&board), "-q", "identify", s(&csv)]);
+        // The default pipeline is the default on both sides.
+        if pipeline != "default" {
+            board_args.extend(["--pipeline", pipeline]);
+        }
+        run_ok(&board_args);
+        let mut host_args = vec!["identify", s(&csv), "--seed", "5", "--json", s(&host), "-q"];
+        if pipeline != "default" {
+            host_args.extend(["--pipeline", pipeline]);
+        }
+        run_ok(&host_args);
+        let (b, h) = (json(&board), json(&host));
+        assert_eq!(h["mode"], pipeline);
+        assert_eq!(
+            b["params"], h["params"],
+            "{pipeline}: board {b} vs host {h}"
+        );
+        assert_eq!(b["rmse_omega"], h["rmse_omega"], "{pipeline}");
+        assert_eq!(b["evaluations"], h["evaluations"], "{pipeline}");
+    }
 }
 
 /// The QEMU build's plant is the seed paper's motor.
@@ -186,7 +194,10 @@ fn abort_mid_identification_and_the_board_answers_again() {
             Some(BoardMessage::ChunkOk { next: end as u32 })
         );
     }
-    raw.send(&HostMessage::Identify { seed: 1 });
+    raw.send(&HostMessage::Identify {
+        seed: 1,
+        pipeline: Pipeline::Default,
+    });
     assert!(matches!(
         raw.receive(Duration::from_secs(10)),
         Some(BoardMessage::Progress { .. })

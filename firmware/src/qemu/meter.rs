@@ -1,10 +1,11 @@
 //! Footprint meter of the QEMU build: SysTick ticks spent from a request to identify
-//! (`Identify`, `Commission`) until its result, and the stack high-water mark (the stack is
+//! (`Identify`, or `Commission`: experiment and identification) until its result, and the stack high-water mark (the stack is
 //! painted at reset by cortex-m-rt's `paint-stack`). Under `qemu-system-arm -icount shift=0`
 //! one instruction advances the virtual clock by 1 ns and SysTick (168 MHz) by 0.168 ticks,
 //! so the tick count is a deterministic instruction count. One plain-text line per job goes
 //! to semihosting stderr (defmt's binary log is on stdout):
-//! `footprint: ticks=T stack_bytes=S samples=N`.
+//! `footprint: job=identify|commission ticks=T stack_bytes=S samples=N` (`samples` of the
+//! last record streamed in; a commissioning records its own).
 
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
@@ -63,7 +64,8 @@ fn stack_high_water() -> u32 {
 /// A link that meters the jobs it carries.
 pub struct MeteredLink<L> {
     inner: L,
-    started: Option<u64>,
+    /// Start of the running job and whether it is a commissioning.
+    started: Option<(u64, bool)>,
     samples: u32,
 }
 
@@ -81,11 +83,12 @@ impl<L> MeteredLink<L> {
 impl<L: Link> Link for MeteredLink<L> {
     fn send(&mut self, msg: &BoardMessage) {
         let done = matches!(msg, BoardMessage::Identified(_));
-        if let Some(t0) = self.started.filter(|_| done) {
+        if let Some((t0, commission)) = self.started.filter(|_| done) {
             self.started = None;
             let ticks = now() - t0;
             cortex_m_semihosting::heprintln!(
-                "footprint: ticks={} stack_bytes={} samples={}",
+                "footprint: job={} ticks={} stack_bytes={} samples={}",
+                if commission { "commission" } else { "identify" },
                 ticks,
                 stack_high_water(),
                 self.samples
@@ -98,7 +101,8 @@ impl<L: Link> Link for MeteredLink<L> {
         let msg = self.inner.poll();
         match &msg {
             Some(HostMessage::IdentifyBegin { samples, .. }) => self.samples = *samples,
-            Some(HostMessage::Identify { .. }) => self.started = Some(now()),
+            Some(HostMessage::Identify { .. }) => self.started = Some((now(), false)),
+            Some(HostMessage::Commission { .. }) => self.started = Some((now(), true)),
             _ => {}
         }
         msg
