@@ -34,7 +34,7 @@ pub trait StatusLed {
 
 /// Run the application forever.
 pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
-    mut hw: Hardware<L, D, P, W>,
+    hw: &'static mut Hardware<L, D, P, W>,
     mut led: impl StatusLed,
 ) -> ! {
     let store: &'static mut RecordStore<MAX_SAMPLES> =
@@ -43,7 +43,7 @@ pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
     let mut service = Service::new(store, LIMITS);
     led.show(State::NoParameters);
     defmt::info!("motor-id firmware: power-up");
-    let state = match service.boot(&mut hw) {
+    let state = match service.boot(hw) {
         Boot::InService(r) => {
             defmt::info!(
                 "valid parameters stored (rmse {} rad/s): in service",
@@ -75,6 +75,6 @@ pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
     };
     led.show(state);
     loop {
-        service.poll(&mut hw);
+        service.poll(hw);
     }
 }

@@ -28,9 +28,25 @@ mod qemu;
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    #[cfg(feature = "board")]
-    let (hw, led) = board::init();
-    #[cfg(feature = "qemu")]
-    let (hw, led) = qemu::init();
+    let (hw, led) = init();
     app::run(hw, led)
+}
+
+/// Bring the board up, its hardware in a static: not on the stack the identification needs
+/// (a frame of its own, gone before the application runs).
+#[cfg(feature = "board")]
+#[inline(never)]
+fn init() -> (&'static mut board::BoardHardware, board::Led) {
+    let (hw, led) = board::init();
+    let hw = cortex_m::singleton!(: board::BoardHardware = hw).expect("init runs once");
+    (hw, led)
+}
+
+/// Bring the emulated board up, its hardware in a static (see the board's `init`).
+#[cfg(feature = "qemu")]
+#[inline(never)]
+fn init() -> (&'static mut qemu::QemuHardware, qemu::LogLed) {
+    let (hw, led) = qemu::init();
+    let hw = cortex_m::singleton!(: qemu::QemuHardware = hw).expect("init runs once");
+    (hw, led)
 }

@@ -12,10 +12,7 @@ use crate::refine::{levenberg_marquardt, LmConfig};
 use crate::space::{ProblemSpec, Space, MAX_FREE};
 use core::ops::ControlFlow;
 
-/// Largest FFO population (the seed's 4 x 25).
-pub const MAX_POPULATION: usize = 100;
-/// Longest convergence trace kept (the seed's 200 iterations plus refinement).
-pub const TRACE_CAPACITY: usize = 256;
+pub use crate::capacity::{MAX_POPULATION, TRACE_CAPACITY};
 /// A refinement that ends above this multiple of the measured noise is restarted from the
 /// next best FFO member, while restarts remain.
 const NOISE_FLOOR_FACTOR: f32 = 1.05;

@@ -10,6 +10,7 @@
 // Matrix and per-dimension loops read as the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod capacity;
 pub mod discretise;
 pub mod effects;
 pub mod error;

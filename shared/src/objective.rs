@@ -270,12 +270,14 @@ impl<'r, 'a> Objective<'r, 'a> {
     ) -> Option<NormalEquations> {
         let dim = space.dim();
         let nominal = space.params(u);
-        // Perturbed points: +h (and -h) per coordinate, kept inside the cube. `pairs[d]` holds
-        // the indices of the upper and lower point in `points`, NOMINAL for the nominal one.
+        // Perturbed points: +h (and -h) per coordinate, kept inside the cube, as (coordinate,
+        // value) (their parameters are built per record: stack is scarce on a board).
+        // `pairs[d]` holds the indices of the upper and lower point in `points`, NOMINAL for
+        // the nominal one.
         const NOMINAL: usize = usize::MAX;
         let mut steps = [0.0f32; MAX_FREE];
         let mut pairs = [(NOMINAL, NOMINAL); MAX_FREE];
-        let mut points: heapless::Vec<ModelParams, { 2 * MAX_FREE }> = heapless::Vec::new();
+        let mut points: heapless::Vec<(usize, f32), { 2 * MAX_FREE }> = heapless::Vec::new();
         for d in 0..dim {
             let (hi_u, lo_u) = if central {
                 ((u[d] + h).min(1.0), (u[d] - h).max(0.0))
@@ -289,10 +291,7 @@ impl<'r, 'a> Objective<'r, 'a> {
                 if x == u[d] {
                     return Some(NOMINAL);
                 }
-                let mut moved = [0.0f32; MAX_FREE];
-                moved[..dim].copy_from_slice(&u[..dim]);
-                moved[d] = x;
-                points.push(space.params(&moved[..dim])).ok()?;
+                points.push((d, x)).ok()?;
                 Some(points.len() - 1)
             };
             pairs[d] = (index_of(hi_u)?, index_of(lo_u)?);
@@ -307,9 +306,13 @@ impl<'r, 'a> Objective<'r, 'a> {
                 None => None,
             };
             let mut sims: heapless::Vec<Simulator, { 2 * MAX_FREE }> = heapless::Vec::new();
-            for p in &points {
-                let (init_p, _) = self.initial_pair(r, p);
-                sims.push(Simulator::new(p, r.dt, init_p).ok()?).ok()?;
+            for &(d, x) in &points {
+                let mut moved = [0.0f32; MAX_FREE];
+                moved[..dim].copy_from_slice(&u[..dim]);
+                moved[d] = x;
+                let p = space.params(&moved[..dim]);
+                let (init_p, _) = self.initial_pair(r, &p);
+                sims.push(Simulator::new(&p, r.dt, init_p).ok()?).ok()?;
             }
             let tracks = sim0.tracks_angle() || sims.iter().any(Simulator::tracks_angle);
             let with_current = r.current.is_some() && w > 0.0;

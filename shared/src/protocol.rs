@@ -116,6 +116,8 @@ pub enum Refusal {
     SensorFault,
     /// Busy with another job.
     Busy,
+    /// The pipeline needs more memory than the board has (the paper-faithful population).
+    PipelineTooLarge,
 }
 
 impl core::fmt::Display for Refusal {
@@ -136,6 +138,9 @@ impl core::fmt::Display for Refusal {
                 f.write_str("safety check: a sensor reads non-finite values or an offset at 0 V")
             }
             Refusal::Busy => f.write_str("busy with another job"),
+            Refusal::PipelineTooLarge => {
+                f.write_str("the board's memory cannot hold this pipeline (its population)")
+            }
         }
     }
 }

@@ -387,6 +387,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 hw.link.send(&BoardMessage::Identified(report));
                 return Ok(report);
             }
+            Err(crate::Error::InvalidConfig) => JobEnd::Refused(Refusal::PipelineTooLarge),
             Err(_) => JobEnd::Refused(Refusal::InvalidRecord),
         };
         fail(end, &mut hw.link)
@@ -451,10 +452,13 @@ impl<'s, const N: usize> Service<'s, N> {
         s.expected = N;
         for k in 0..N {
             hw.watchdog.feed();
+            // min/max rather than clamp: clamp's NaN/order assertion would link float
+            // formatting (about 10 KB of flash) for a panic that cannot happen here.
             let v = experiment
                 .at(k as f32 * dt)
                 .v
-                .clamp(-self.limits.voltage, self.limits.voltage);
+                .min(self.limits.voltage)
+                .max(-self.limits.voltage);
             let sample = hw.drive.step(v);
             let within = sample.current.abs() <= self.limits.current
                 && sample.omega.abs() <= self.limits.speed;

@@ -13,8 +13,7 @@ use crate::discretise::Discrete;
 use crate::error::Error;
 use crate::params::{ModelParams, ParamId};
 
-/// Longest tacho delay the simulator can represent, in samples.
-pub const MAX_DELAY_SAMPLES: usize = 126;
+pub use crate::capacity::MAX_DELAY_SAMPLES;
 const RING: usize = MAX_DELAY_SAMPLES + 2;
 
 /// Compensated f32 accumulator: `hi + lo` carries about twice the precision of one f32.

@@ -4,8 +4,7 @@
 use crate::error::Error;
 use crate::params::{ModelParams, ParamId, PARAM_COUNT};
 
-/// Largest number of free parameters.
-pub const MAX_FREE: usize = 12;
+pub use crate::capacity::MAX_FREE;
 
 /// How a free parameter maps from the unit interval.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

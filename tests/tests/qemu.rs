@@ -5,7 +5,7 @@ use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::protocol::{
     BoardMessage, HostMessage, Pipeline, Refusal, CHUNK, PROTOCOL_VERSION,
 };
-use motor_id_tests::{board_record, json, run, run_ok, s, Qemu};
+use motor_id_tests::{board_record, json, run, run_err, run_ok, s, Qemu};
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
@@ -48,6 +48,23 @@ fn board_identify_is_bit_identical_to_host_identify() {
         assert_eq!(b["rmse_omega"], h["rmse_omega"], "{pipeline}");
         assert_eq!(b["evaluations"], h["evaluations"], "{pipeline}");
     }
+    // The paper-faithful population does not fit the board's memory: a typed refusal, one
+    // line, non-zero exit, and the board goes on answering.
+    let err = run_err(&[
+        "board",
+        "--port",
+        &q.pty,
+        "-q",
+        "identify",
+        s(&csv),
+        "--pipeline",
+        "paper",
+    ]);
+    assert!(
+        err.contains(&Refusal::PipelineTooLarge.to_string()),
+        "{err}"
+    );
+    run_ok(&["board", "--port", &q.pty, "hello"]);
 }
 
 /// The QEMU build's plant is the seed paper's motor.
