@@ -40,3 +40,7 @@ pub const TRACE_CAPACITY: usize = 256;
 /// reports progress as it goes and keeps none).
 #[cfg(not(any(test, feature = "full")))]
 pub const TRACE_CAPACITY: usize = 0;
+
+/// Most refinements restarted from the next best FFO members after the first (the default
+/// pipeline's 3; their starting points are kept while the population is dropped).
+pub const MAX_RESTARTS: usize = 3;

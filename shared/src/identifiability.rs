@@ -22,7 +22,7 @@
 
 use crate::error::Error;
 use crate::linalg::symmetric_eigen;
-use crate::objective::{Cost, Objective};
+use crate::objective::{Cost, NormalEquations, Objective};
 use crate::params::{ModelParams, ParamId};
 use crate::space::{Space, MAX_FREE};
 
@@ -150,16 +150,24 @@ impl Identifiability {
 }
 
 /// Analyse the fit at unit point `u` with cost `cost`.
+#[inline(never)]
 pub fn analyse(
     objective: &Objective,
     space: &Space,
     u: &[f32],
     cost: &Cost,
 ) -> Result<Identifiability, Error> {
-    let dim = space.dim();
     let ne = objective
         .normal_equations(space, u, STEP, true)
         .ok_or(Error::NoFiniteCandidate)?;
+    Ok(interpret(&ne, space, u, cost))
+}
+
+/// The analysis of the normal equations `ne` at `u`. A frame of its own: the eigen
+/// decomposition's matrices are not on the stack while the normal equations are built.
+#[inline(never)]
+fn interpret(ne: &NormalEquations, space: &Space, u: &[f32], cost: &Cost) -> Identifiability {
+    let dim = space.dim();
     let dof = (cost.residuals as f64 - dim as f64).max(1.0);
     let sigma2 = (cost.sse / dof).max(f64::MIN_POSITIVE);
     let free = space.free();
@@ -297,11 +305,11 @@ pub fn analyse(
             });
         }
     }
-    Ok(Identifiability {
+    Identifiability {
         rank,
         params,
         combinations,
         unpinned,
         evaluations: ne.simulations,
-    })
+    }
 }

@@ -12,7 +12,10 @@ use crate::refine::{levenberg_marquardt, LmConfig};
 use crate::space::{ProblemSpec, Space, MAX_FREE};
 use core::ops::ControlFlow;
 
-pub use crate::capacity::{MAX_POPULATION, TRACE_CAPACITY};
+pub use crate::capacity::{MAX_POPULATION, MAX_RESTARTS, TRACE_CAPACITY};
+
+/// Starting points of refinement taken from the FFO's final population.
+type RefineStarts = heapless::Vec<[f32; MAX_FREE], { MAX_RESTARTS + 1 }>;
 /// A refinement that ends above this multiple of the measured noise is restarted from the
 /// next best FFO member, while restarts remain.
 const NOISE_FLOOR_FACTOR: f32 = 1.05;
@@ -199,6 +202,9 @@ pub fn identify_from(
     initial: Option<&ModelParams>,
     progress: impl FnMut(&Progress) -> ControlFlow<()>,
 ) -> Result<Identification, Error> {
+    if cfg.restarts as usize > MAX_RESTARTS {
+        return Err(Error::InvalidConfig);
+    }
     let objective = Objective::new(records)?;
     let space = Space::new(spec, cfg.log_scale)?;
     let mut run = Run {
@@ -336,6 +342,26 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
     /// FFO (seed Eq. 8-16) from random points (and `seed_point`), then refinement of the best
     /// members until one reaches the noise floor or the restarts are spent.
     fn search(&mut self, seed_point: Option<&[f32]>) -> Result<(), Error> {
+        let starts = self.explore(seed_point)?;
+        let dim = self.space.dim();
+        let floor = NOISE_FLOOR_FACTOR * self.objective.sigma_omega();
+        for u0 in &starts {
+            if !self.completed || self.cfg.refine.is_none() {
+                break;
+            }
+            self.refine(&u0[..dim]);
+            if self.best_fitness() <= floor {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// The FFO (seed Eq. 8-16) from random points (and `seed_point`); returns the starts of
+    /// refinement, the best `restarts + 1` members (best first, finite cost only). A frame
+    /// of its own, so that the population is gone while refinement runs.
+    #[inline(never)]
+    fn explore(&mut self, seed_point: Option<&[f32]>) -> Result<RefineStarts, Error> {
         let (objective, space) = (self.objective, self.space);
         let fitness = |u: &[f32], bound: f32| objective.fitness_below(space, u, bound);
         let cfg = self.cfg;
@@ -376,23 +402,20 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
         if self.best.is_none() {
             return Err(Error::NoFiniteCandidate);
         }
-        let floor = NOISE_FLOOR_FACTOR * objective.sigma_omega();
+        let mut starts = RefineStarts::new();
         for rank in 0..=cfg.restarts as usize {
-            if !self.completed || cfg.refine.is_none() {
-                break;
-            }
             let (u0, c0) = ffo.ranked(rank);
             if !c0.is_finite() {
                 break;
             }
             let mut u = [0.0f32; MAX_FREE];
             u[..space.dim()].copy_from_slice(u0);
-            self.refine(&u[..space.dim()]);
-            if self.best_fitness() <= floor {
+            // Never full: `restarts` is checked against the capacity up front.
+            if starts.push(u).is_err() {
                 break;
             }
         }
-        Ok(())
+        Ok(starts)
     }
 }
 
@@ -493,5 +516,28 @@ mod tests {
             "{} vs floor {floor}",
             id.cost.rmse_omega
         );
+    }
+
+    #[test]
+    fn more_restarts_than_kept_starts_is_refused_before_any_work() {
+        let data = Owned::seed_motor(Profile::Steps, 0.015, 200, Noise::default(), 1);
+        let rec = [data.record(true, false)];
+        let at_capacity = IdentifyConfig {
+            restarts: MAX_RESTARTS as u32,
+            ..IdentifyConfig::default_pipeline(1)
+        };
+        let go_on = |_: &Progress| ControlFlow::Continue(());
+        assert!(identify(&rec, &ProblemSpec::default(), &at_capacity, go_on).is_ok());
+        let over = IdentifyConfig {
+            restarts: MAX_RESTARTS as u32 + 1,
+            ..at_capacity
+        };
+        let mut called = false;
+        let result = identify(&rec, &ProblemSpec::default(), &over, |_| {
+            called = true;
+            ControlFlow::Continue(())
+        });
+        assert_eq!(result.err(), Some(Error::InvalidConfig));
+        assert!(!called);
     }
 }

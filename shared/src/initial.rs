@@ -282,6 +282,7 @@ pub fn equal_fit_point(c: (f64, f64, f64), spec: &ProblemSpec) -> Option<ModelPa
 
 /// The start for `records`: equation error with current when every record has it, else the
 /// speed-only equal-fit point.
+#[inline(never)]
 pub fn start(records: &[Record], spec: &ProblemSpec) -> Option<ModelParams> {
     equation_error(records).or_else(|| equal_fit_point(speed_coefficients(records)?, spec))
 }

@@ -202,7 +202,9 @@ fn lm_step(
 /// Damped Gauss-Newton step `(J^T J + lambda D) du = -J^T r` with bound constraints handled
 /// by an active set: a coordinate on a bound whose step points outwards is held and the step
 /// solved again for the others, so that the fit can slide along a bound (a speed-only fit
-/// whose flat valley meets the edge of the box) instead of stalling there.
+/// whose flat valley meets the edge of the box) instead of stalling there. (A frame of its
+/// own: its matrices are not on the stack while the normal equations are built.)
+#[inline(never)]
 fn projected_step(
     ne: &crate::objective::NormalEquations,
     u: &[f32; MAX_FREE],
