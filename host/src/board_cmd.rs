@@ -54,7 +54,8 @@ pub enum BoardAction {
     Identify {
         /// Record CSV (t, v, omega, optional i).
         file: PathBuf,
-        /// Pipeline, as for `motor-id identify`.
+        /// Pipeline, as for `motor-id identify` (a board refuses `paper`: its population of 100
+        /// does not fit the board's memory).
         #[arg(long, value_enum, default_value_t = PipelineArg::Default)]
         pipeline: PipelineArg,
     },
