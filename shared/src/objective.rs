@@ -385,7 +385,7 @@ const SHIFT: f32 = 1.0;
 /// Every sum is an [`Accumulator`]; all of them take one term per sample, so they share one
 /// sample count and flush their f32 blocks together (only the sums in use: the leading
 /// `dim` Jacobian entries, the current sums when current is fitted).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 struct RecordSums {
     dim: usize,
     with_current: bool,
@@ -436,21 +436,11 @@ impl Partial {
 
 impl RecordSums {
     fn new(dim: usize, with_current: bool, with_shift: bool) -> Self {
-        let zero = Accumulator::default();
         RecordSums {
             dim,
             with_current,
             with_shift,
-            count: 0,
-            omega_sq: zero,
-            current_sq: zero,
-            h_omega_r: zero,
-            h_omega_sq: zero,
-            h_current_r: zero,
-            h_current_sq: zero,
-            jtj: [[zero; MAX_FREE]; MAX_FREE],
-            jtr: [zero; MAX_FREE],
-            jth: [zero; MAX_FREE],
+            ..RecordSums::default()
         }
     }
 
