@@ -35,11 +35,9 @@ pub trait StatusLed {
 /// Run the application forever.
 pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
     hw: &'static mut Hardware<L, D, P, W>,
+    store: &'static mut RecordStore<MAX_SAMPLES>,
     mut led: impl StatusLed,
 ) -> ! {
-    let store: &'static mut RecordStore<MAX_SAMPLES> =
-        cortex_m::singleton!(: RecordStore<MAX_SAMPLES> = RecordStore::new())
-            .expect("run is entered once");
     let mut service = Service::new(store, LIMITS);
     led.show(State::NoParameters);
     defmt::info!("motor-id firmware: power-up");

@@ -28,8 +28,12 @@ mod qemu;
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
+    // The record buffers, initialised at link time (.bss): `entry` turns this into a
+    // `&'static mut` (a run-time initialiser would build its 24 KB on the stack first).
+    static mut STORE: motor_id_shared::service::RecordStore<{ app::MAX_SAMPLES }> =
+        motor_id_shared::service::RecordStore::new();
     let (hw, led) = init();
-    app::run(hw, led)
+    app::run(hw, STORE, led)
 }
 
 /// Bring the board up, its hardware in a static: not on the stack the identification needs

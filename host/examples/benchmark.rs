@@ -105,6 +105,7 @@ fn run(case: &Case, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
         omega: &case.omega,
         current: with_current.then_some(&case.current[..]),
         load: None,
+        coast_from: None,
     }];
     let objective = Objective::new(&rec).unwrap();
     let floor = objective.cost(&case.truth).unwrap();

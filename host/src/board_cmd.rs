@@ -225,22 +225,36 @@ fn report_json(r: &MotorReport) -> Value {
             json!({ "value": num(r.params[k]), "pinned": std.is_finite(), "std": num(std) }),
         );
     }
+    if let Some(f) = r.friction {
+        let name = ParamId::Tc.name();
+        params.insert(name.into(), num(f.value));
+        ident.insert(
+            name.into(),
+            json!({ "value": num(f.value), "pinned": f.std.is_finite(), "std": num(f.std) }),
+        );
+    }
     json!({
         "params": params,
         "rmse_omega": num(r.rmse_omega),
         "evaluations": r.evaluations,
-        "identifiability": { "rank": r.rank, "free": 5, "parameters": ident },
+        "identifiability": { "rank": r.rank, "free": ident.len(), "parameters": ident },
     })
 }
 
 fn print_report(r: &MotorReport) {
-    for (k, id) in ParamId::MOTOR.iter().enumerate() {
-        let std = if r.std[k].is_finite() {
-            format!("+- {:.3e}", r.std[k])
+    let line = |name: &str, value: f32, std: f32| {
+        let std = if std.is_finite() {
+            format!("+- {std:.3e}")
         } else {
             "NOT pinned".into()
         };
-        println!("  {:<3} = {:<14} {}", id.name(), r.params[k], std);
+        println!("  {name:<3} = {value:<14} {std}");
+    };
+    for (k, id) in ParamId::MOTOR.iter().enumerate() {
+        line(id.name(), r.params[k], r.std[k]);
+    }
+    if let Some(f) = r.friction {
+        line(ParamId::Tc.name(), f.value, f.std);
     }
     println!(
         "rmse_omega = {} rad/s, {} evaluations, rank {}",

@@ -38,6 +38,7 @@ impl OwnedRecord {
             omega: &self.omega,
             current: self.current.as_deref().filter(|_| use_current),
             load: self.load.as_deref(),
+            coast_from: None,
         }
     }
 

@@ -4,8 +4,8 @@
 //! Two sets. With the `full` feature (the host, and this crate's own tests): every effect
 //! can be fitted (12 free parameters), the seed's population of 100 (paper-faithful mode),
 //! a tacho delay line of 126 samples and a 256-point convergence trace. Without it (the
-//! firmware): what a board identifies, the five motor parameters with the default and board
-//! pipelines, in a few kilobytes of stack. The arithmetic does not depend on the capacities
+//! firmware): what a board identifies, the five motor parameters and Coulomb friction
+//! (commissioning) with the default and board pipelines, in a few kilobytes of stack. The arithmetic does not depend on the capacities
 //! (loops run over the parameters and members in use), so a problem that fits both gives the
 //! same result bit for bit; one that does not fit is refused with a typed error
 //! ([`crate::Error::TooManyParameters`], [`crate::Error::InvalidConfig`],
@@ -16,7 +16,7 @@
 pub const MAX_FREE: usize = 12;
 /// Largest number of free parameters.
 #[cfg(not(any(test, feature = "full")))]
-pub const MAX_FREE: usize = 5;
+pub const MAX_FREE: usize = 6;
 
 /// Largest FFO population (`full`: the seed's 4 x 25; board: the default pipeline's 2 x 8).
 #[cfg(any(test, feature = "full"))]

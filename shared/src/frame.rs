@@ -161,6 +161,10 @@ mod tests {
         let report = MotorReport {
             params: [3.4, 0.057, 0.042, 0.0027, 0.16],
             std: [0.01, f32::NAN, 1e-4, 1e-5, 1e-3],
+            friction: Some(Estimate {
+                value: 0.05,
+                std: 2e-3,
+            }),
             rmse_omega: 0.5,
             evaluations: 60,
             rank: 4,

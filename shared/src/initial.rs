@@ -20,6 +20,7 @@
 use crate::linalg::{Mat, Vector};
 use crate::params::{ModelParams, ParamId};
 use crate::record::Record;
+use crate::sim::sign;
 use crate::space::{ProblemSpec, MAX_FREE};
 
 /// A small least-squares problem (at most [`MAX_FREE`] unknowns) solved by a QR
@@ -110,15 +111,18 @@ fn row_stride(len: usize) -> usize {
 }
 
 /// Motor parameters by equation error, or `None` without current in every record or when
-/// the regression is degenerate or gives a non-positive parameter.
-pub fn equation_error(records: &[Record]) -> Option<ModelParams> {
+/// the regression is degenerate or gives a non-positive parameter. Seed Eq. 1 holds only
+/// while the bridge drives the armature, so a coast-down adds no electrical row; seed Eq. 4
+/// holds throughout (with `i = 0` in the coast-down, where it shows friction alone). With
+/// `with_friction`, the mechanical regression has a Coulomb term `tc int sign(w)` as well.
+pub fn equation_error(records: &[Record], with_friction: bool) -> Option<ModelParams> {
     let mut electrical = LeastSquares::new(3);
     for r in records {
         let c = r.current?;
         let dt = r.dt as f64;
         let (mut iv, mut ii, mut iw) = (0.0f64, 0.0f64, 0.0f64);
         let stride = row_stride(r.len());
-        for k in 1..r.len() {
+        for k in 1..r.driven_len() {
             iv += r.v[k - 1] as f64 * dt;
             ii += 0.5 * (c[k - 1] + c[k]) as f64 * dt;
             iw += 0.5 * (r.omega[k - 1] + r.omega[k]) as f64 * dt;
@@ -129,24 +133,31 @@ pub fn equation_error(records: &[Record]) -> Option<ModelParams> {
     }
     let x = electrical.solve()?;
     let (ra, la, kv) = (x[0], x[1], x[2]);
-    let mut mechanical = LeastSquares::new(2);
+    let mut mechanical = LeastSquares::new(if with_friction { 3 } else { 2 });
     for r in records {
         let c = r.current?;
         let dt = r.dt as f64;
-        let (mut ii, mut iw, mut it) = (0.0f64, 0.0f64, 0.0f64);
+        let (mut ii, mut iw, mut it, mut is) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         let stride = row_stride(r.len());
         for k in 1..r.len() {
             ii += 0.5 * (c[k - 1] + c[k]) as f64 * dt;
             iw += 0.5 * (r.omega[k - 1] + r.omega[k]) as f64 * dt;
             it += r.load_at(k - 1) as f64 * dt;
+            is += 0.5 * (sign(r.omega[k - 1]) + sign(r.omega[k])) as f64 * dt;
             if k % stride == 0 {
-                mechanical.add(&[(r.omega[k] - r.omega[0]) as f64, iw], kv * ii - it);
+                let row = [(r.omega[k] - r.omega[0]) as f64, iw, is];
+                mechanical.add(&row, kv * ii - it);
             }
         }
     }
     let x = mechanical.solve()?;
     let (j, b) = (x[0], x[1]);
     let p = ModelParams::motor(ra as f32, la as f32, j as f32, b.max(0.0) as f32, kv as f32);
+    let p = if with_friction {
+        p.with(ParamId::Tc, x[2].max(0.0) as f32)
+    } else {
+        p
+    };
     let positive = [ra, la, j, kv].iter().all(|x| *x > 0.0);
     (positive && p.validate().is_ok()).then_some(p)
 }
@@ -170,7 +181,8 @@ pub fn speed_coefficients(records: &[Record]) -> Option<(f64, f64, f64)> {
         // Running integrals: of w, of int w, of v, of int v, of tl, of int tl.
         let (mut iw, mut iiw, mut iv, mut iiv, mut it, mut iit) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         let stride = row_stride(r.len());
-        for k in 1..r.len() {
+        // Seed Eq. 6 holds only while the bridge drives the armature.
+        for k in 1..r.driven_len() {
             let w_mid = 0.5 * (r.omega[k - 1] + r.omega[k]) as f64;
             iiw += (iw + 0.5 * w_mid * dt) * dt;
             iw += w_mid * dt;
@@ -284,7 +296,8 @@ pub fn equal_fit_point(c: (f64, f64, f64), spec: &ProblemSpec) -> Option<ModelPa
 /// speed-only equal-fit point.
 #[inline(never)]
 pub fn start(records: &[Record], spec: &ProblemSpec) -> Option<ModelParams> {
-    equation_error(records).or_else(|| equal_fit_point(speed_coefficients(records)?, spec))
+    equation_error(records, spec.free[ParamId::Tc.index()])
+        .or_else(|| equal_fit_point(speed_coefficients(records)?, spec))
 }
 
 #[cfg(test)]
@@ -294,6 +307,7 @@ mod tests {
     use crate::profile::{Experiment, Profile};
     use crate::synth::Noise;
     use crate::testkit::Owned;
+    use std::vec;
 
     #[test]
     fn least_squares_solves_nearly_collinear_columns() {
@@ -323,7 +337,7 @@ mod tests {
     fn recovers_a_noise_free_motor_closely() {
         let truth = ModelParams::SEED_MOTOR;
         let data = Owned::seed_motor(Profile::Steps, 0.001, 30_000, Noise::default(), 1);
-        let est = equation_error(&[data.record(true, false)]).unwrap();
+        let est = equation_error(&[data.record(true, false)], false).unwrap();
         for id in ParamId::MOTOR {
             let rel = (est.get(id) / truth.get(id) - 1.0).abs();
             assert!(
@@ -334,6 +348,53 @@ mod tests {
                 truth.get(id)
             );
         }
+    }
+
+    #[test]
+    fn a_coast_down_record_gives_coulomb_friction_and_the_motor() {
+        use crate::plant::SimulatedPlant;
+        use crate::service::{coast_start, commissioning_input, Bridge, Drive};
+        let (n, dt, tc) = (2000, 0.01, 0.05);
+        let truth = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+        let mut plant = SimulatedPlant::new(&truth, dt, 0.0, 0.0, 1).unwrap();
+        let (mut v, mut w, mut i) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
+        for k in 0..n {
+            let s = match commissioning_input(k, n, dt, 50.0) {
+                Bridge::Drive(volts) => {
+                    v[k] = volts;
+                    plant.step(volts)
+                }
+                // The voltage column holds 0 where the bridge is open (not applied).
+                Bridge::Open => plant.coast(),
+            };
+            (w[k], i[k]) = (s.omega, s.current);
+        }
+        let record = Record {
+            dt,
+            v: &v,
+            omega: &w,
+            current: Some(&i),
+            load: None,
+            coast_from: Some(coast_start(n)),
+        };
+        let est = equation_error(&[record], true).unwrap();
+        // Sampled at 100 Hz, below the electrical time constant's resolution (17 ms): La is
+        // the least accurate (the integrated equation is continuous-time; a start only).
+        for (id, tol) in [
+            (ParamId::Ra, 0.02),
+            (ParamId::Kv, 0.02),
+            (ParamId::J, 0.03),
+            (ParamId::B, 0.03),
+            (ParamId::Tc, 0.03),
+            (ParamId::La, 0.3),
+        ] {
+            let rel = (est.get(id) / truth.get(id) - 1.0).abs();
+            assert!(rel < tol, "{}: {} vs {}", id.name(), est.get(id), truth.get(id));
+        }
+        // Without the friction term, viscous friction absorbs it.
+        let linear = equation_error(&[record], false).unwrap();
+        assert!(linear.get(ParamId::B) > 1.1 * truth.get(ParamId::B), "{linear:?}");
+        assert_eq!(linear.get(ParamId::Tc), 0.0);
     }
 
     #[test]
@@ -398,6 +459,6 @@ mod tests {
             Noise::default(),
             1,
         );
-        assert!(equation_error(&[data.record(false, false)]).is_none());
+        assert!(equation_error(&[data.record(false, false)], false).is_none());
     }
 }

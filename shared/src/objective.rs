@@ -176,16 +176,7 @@ impl<'r, 'a> Objective<'r, 'a> {
             omega: init.omega + shift,
             ..init
         };
-        crate::sim::simulate(
-            p,
-            r.dt,
-            best,
-            r.v,
-            r.load,
-            Some(r.omega),
-            out_omega,
-            out_current,
-        )
+        crate::sim::simulate(p, r, best, true, out_omega, out_current)
     }
 
     /// Residual sums of record `r` simulated with `p` (no Jacobian); `Err(())` once the
@@ -207,6 +198,7 @@ impl<'r, 'a> Objective<'r, 'a> {
         let mut sums = RecordSums::new(0, with_current, shifted.is_some());
         let tracks = sim.tracks_angle();
         let w = self.current_weight;
+        let coast = r.coast_index();
         match shifted {
             // A record that starts at rest: no initial speed to project out, and the SSE
             // grows monotonically, so a candidate can be abandoned early.
@@ -218,6 +210,9 @@ impl<'r, 'a> Objective<'r, 'a> {
                         && partial.reached(&sums)
                     {
                         return Err(());
+                    }
+                    if k == coast {
+                        sim.open_circuit();
                     }
                     let rate = if tracks { r.angle_rate(k) } else { 0.0 };
                     sim.advance_tracking(r.v[k], r.load_at(k), rate);
@@ -232,6 +227,10 @@ impl<'r, 'a> Objective<'r, 'a> {
                     sums.add_residuals(r, k, y, w);
                     sums.add_shift_response(r, k, y, sim_s.reading(), w, &[], &[]);
                     sums.end_sample();
+                    if k == coast {
+                        sim.open_circuit();
+                        sim_s.open_circuit();
+                    }
                     let (v, tl) = (r.v[k], r.load_at(k));
                     let rate = if tracks { r.angle_rate(k) } else { 0.0 };
                     sim.advance_tracking(v, tl, rate);
@@ -320,6 +319,7 @@ impl<'r, 'a> Objective<'r, 'a> {
             let tracks = sim0.tracks_angle() || sims.iter().any(Simulator::tracks_angle);
             let with_current = r.current.is_some() && w > 0.0;
             let mut sums = RecordSums::new(dim, with_current, sim_s.is_some());
+            let coast = r.coast_index();
             for k in 0..r.len() {
                 let y0 = sim0.reading();
                 let read = |i: usize| if i == NOMINAL { y0 } else { sims[i].reading() };
@@ -339,6 +339,11 @@ impl<'r, 'a> Objective<'r, 'a> {
                     sums.add_shift_response(r, k, y0, s.reading(), w, col_w, col_i);
                 }
                 sums.end_sample();
+                if k == coast {
+                    sim0.open_circuit();
+                    sim_s.iter_mut().for_each(Simulator::open_circuit);
+                    sims.iter_mut().for_each(Simulator::open_circuit);
+                }
                 let (v, tl) = (r.v[k], r.load_at(k));
                 let rate = if tracks { r.angle_rate(k) } else { 0.0 };
                 sim0.advance_tracking(v, tl, rate);
@@ -399,10 +404,30 @@ struct RecordSums {
     h_omega_sq: Accumulator,
     h_current_r: Accumulator,
     h_current_sq: Accumulator,
-    /// Lower triangle of `J^T J` (entries `[a][b]`, `b <= a`; the upper one is its mirror).
-    jtj: [[Accumulator; MAX_FREE]; MAX_FREE],
+    /// Lower triangle of `J^T J`, packed by rows (entry `(a, b)`, `b <= a`, at
+    /// [`triangle_index`]; the upper one is its mirror).
+    jtj: Triangle,
     jtr: [Accumulator; MAX_FREE],
     jth: [Accumulator; MAX_FREE],
+}
+
+/// Entries of the packed lower triangle of a `MAX_FREE` square matrix.
+const TRIANGLE: usize = MAX_FREE * (MAX_FREE + 1) / 2;
+
+/// A packed lower triangle of sums (half the stack of the square matrix).
+#[derive(Clone, Copy, Debug)]
+struct Triangle([Accumulator; TRIANGLE]);
+
+impl Default for Triangle {
+    fn default() -> Self {
+        Triangle([Accumulator::default(); TRIANGLE])
+    }
+}
+
+/// Position of entry `(a, b)`, `b <= a`, in a lower triangle packed by rows (`(dim, 0)`
+/// gives the number of entries of a `dim` square matrix).
+const fn triangle_index(a: usize, b: usize) -> usize {
+    a * (a + 1) / 2 + b
 }
 
 /// The weighted SSE of the records before this one and the limit at which a cost
@@ -463,9 +488,11 @@ impl RecordSums {
     /// Add the Jacobian terms of one sample: columns of the speed and (weighted) current
     /// residuals, and those residuals.
     fn add_jacobian(&mut self, rw: f32, ri: f32, col_w: &[f32], col_i: &[f32]) {
+        let mut entry = 0;
         for a in 0..col_w.len() {
             for b in 0..=a {
-                self.jtj[a][b].add(col_w[a] * col_w[b] + col_i[a] * col_i[b]);
+                self.jtj.0[entry].add(col_w[a] * col_w[b] + col_i[a] * col_i[b]);
+                entry += 1;
             }
             self.jtr[a].add(col_w[a] * rw + col_i[a] * ri);
         }
@@ -532,10 +559,10 @@ impl RecordSums {
                 self.h_current_sq.flush();
             }
         }
+        for entry in &mut self.jtj.0[..triangle_index(dim, 0)] {
+            entry.flush();
+        }
         for a in 0..dim {
-            for b in 0..=a {
-                self.jtj[a][b].flush();
-            }
             self.jtr[a].flush();
             if self.with_shift {
                 self.jth[a].flush();
@@ -569,7 +596,7 @@ impl RecordSums {
         for a in 0..dim {
             let ja = self.jth[a].total();
             for b in 0..dim {
-                let mut x = self.jtj[a.max(b)][a.min(b)].total();
+                let mut x = self.jtj.0[triangle_index(a.max(b), a.min(b))].total();
                 if shift != 0.0 {
                     // Residual r' = r - shift h'; J' = J - (J^T h'/hh) h'^T with h' the
                     // residual response -h, whence the signs.

@@ -46,20 +46,36 @@ impl SimulatedPlant {
     }
 }
 
-impl Drive for SimulatedPlant {
-    fn dt(&self) -> f32 {
-        self.dt
-    }
-
-    fn step(&mut self, volts: f32) -> Sample {
+impl SimulatedPlant {
+    /// The sensors now, with their offsets and noise.
+    fn read(&mut self) -> Sample {
         let r = self.sim.reading();
-        self.sim.advance(volts, 0.0);
         Sample {
             omega: r.omega + self.offset.omega + self.noise_omega * rng::normal(&mut self.rng),
             current: r.current
                 + self.offset.current
                 + self.noise_current * rng::normal(&mut self.rng),
         }
+    }
+}
+
+impl Drive for SimulatedPlant {
+    fn dt(&self) -> f32 {
+        self.dt
+    }
+
+    fn step(&mut self, volts: f32) -> Sample {
+        let sample = self.read();
+        self.sim.close_circuit();
+        self.sim.advance(volts, 0.0);
+        sample
+    }
+
+    fn coast(&mut self) -> Sample {
+        let sample = self.read();
+        self.sim.open_circuit();
+        self.sim.advance(0.0, 0.0);
+        sample
     }
 
     fn stop(&mut self) {

@@ -6,7 +6,7 @@ pub use crate::identify::Pipeline;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 3;
+pub const PROTOCOL_VERSION: u16 = 4;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -80,12 +80,25 @@ pub struct MotorReport {
     pub params: [f32; 5],
     /// One standard deviation of each, NaN when not pinned.
     pub std: [f32; 5],
+    /// Coulomb friction torque `tc` [N m], when it was identified (commissioning: the
+    /// coast-down shows it); not part of a streamed record's problem, whose spec is the
+    /// host's default.
+    pub friction: Option<Estimate>,
     /// Speed RMSE [rad/s].
     pub rmse_omega: f32,
     /// Model evaluations spent.
     pub evaluations: u32,
     /// Pinned directions.
     pub rank: u8,
+}
+
+/// One identified value with its uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Estimate {
+    /// The value.
+    pub value: f32,
+    /// One standard deviation, NaN when not pinned.
+    pub std: f32,
 }
 
 /// Why the board refused or failed a request.

@@ -22,6 +22,10 @@ pub struct Record<'a> {
     pub current: Option<&'a [f32]>,
     /// Known load torque [N m], if applied.
     pub load: Option<&'a [f32]>,
+    /// First sample of a coast-down, if the record ends with one: from `k = coast_from` on,
+    /// every bridge switch is off (open circuit), so no armature current flows, `v` is not
+    /// applied and the shaft slows under friction and load alone (seed Eq. 4 with `i = 0`).
+    pub coast_from: Option<usize>,
 }
 
 impl<'a> Record<'a> {
@@ -50,6 +54,9 @@ impl<'a> Record<'a> {
         if n < MIN_SAMPLES {
             return Err(Error::TooFewSamples);
         }
+        if self.coast_from.is_some_and(|c| c >= n) {
+            return Err(Error::CoastOutsideRecord);
+        }
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
         if !(finite(self.v)
             && finite(self.omega)
@@ -59,6 +66,19 @@ impl<'a> Record<'a> {
             return Err(Error::NonFiniteSample);
         }
         Ok(())
+    }
+
+    /// Samples up to the start of the coast-down (all of them without one): the rows in
+    /// which the applied voltage drives the armature (seed Eq. 1 holds).
+    pub fn driven_len(&self) -> usize {
+        self.coast_from
+            .map_or(self.len(), |c| (c + 1).min(self.len()))
+    }
+
+    /// The sample at which the bridge opens, `usize::MAX` without a coast-down (compared
+    /// with the sample index in the fit loops).
+    pub fn coast_index(&self) -> usize {
+        self.coast_from.unwrap_or(usize::MAX)
     }
 
     /// Mean measured speed over step `k` (trapezoid of readings `k` and `k + 1`): the rate at
@@ -174,8 +194,31 @@ mod tests {
             omega: &w,
             current: None,
             load: None,
+            coast_from: None,
         };
         assert_eq!(ok.validate(), Ok(()));
+        let coasting = Record {
+            coast_from: Some(9),
+            ..ok
+        };
+        assert_eq!(coasting.validate(), Ok(()));
+        assert_eq!(coasting.driven_len(), 10);
+        assert_eq!(
+            Record {
+                coast_from: Some(4),
+                ..ok
+            }
+            .driven_len(),
+            5
+        );
+        assert_eq!(
+            Record {
+                coast_from: Some(10),
+                ..ok
+            }
+            .validate(),
+            Err(Error::CoastOutsideRecord)
+        );
         assert_eq!(
             Record {
                 omega: &short,

@@ -9,6 +9,7 @@
 use crate::identify::{identify, IdentifyConfig, Progress, Stage};
 use crate::params::ParamId;
 use crate::profile::{Experiment, Profile};
+use crate::protocol::Estimate;
 use crate::protocol::{
     BoardMessage, HostMessage, JobStage, MotorReport, Refusal, PROTOCOL_VERSION,
 };
@@ -39,6 +40,9 @@ pub trait Drive {
     fn dt(&self) -> f32;
     /// Wait for the next sample, return it, then apply `volts` until the one after.
     fn step(&mut self, volts: f32) -> Sample;
+    /// Wait for the next sample, return it, then keep every bridge switch off until the one
+    /// after (open circuit: the motor coasts; the next [`Drive::step`] drives it again).
+    fn coast(&mut self) -> Sample;
     /// Remove drive (all bridge switches off: the motor coasts).
     fn stop(&mut self);
 }
@@ -126,6 +130,8 @@ pub struct RecordStore<const N: usize> {
     len: usize,
     expected: usize,
     with_current: bool,
+    /// First sample of the coast-down (commissioning records only).
+    coast_from: Option<usize>,
     v: [f32; N],
     omega: [f32; N],
     current: [f32; N],
@@ -145,6 +151,7 @@ impl<const N: usize> RecordStore<N> {
             len: 0,
             expected: 0,
             with_current: false,
+            coast_from: None,
             v: [0.0; N],
             omega: [0.0; N],
             current: [0.0; N],
@@ -158,6 +165,7 @@ impl<const N: usize> RecordStore<N> {
             omega: &self.omega[..self.len],
             current: self.with_current.then(|| &self.current[..self.len]),
             load: None,
+            coast_from: self.coast_from,
         }
     }
 }
@@ -179,9 +187,19 @@ pub fn motor_report(id: &crate::identify::Identification) -> MotorReport {
             std[k] = c.std.unwrap_or(f32::NAN);
         }
     }
+    let friction = id
+        .identifiability
+        .params
+        .iter()
+        .find(|c| c.id == ParamId::Tc)
+        .map(|c| Estimate {
+            value: id.params.get(ParamId::Tc),
+            std: c.std.unwrap_or(f32::NAN),
+        });
     MotorReport {
         params,
         std,
+        friction,
         rmse_omega: id.cost.rmse_omega,
         evaluations: id.evaluations,
         rank: id.identifiability.rank as u8,
@@ -291,6 +309,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 s.len = 0;
                 s.expected = samples as usize;
                 s.with_current = with_current;
+                s.coast_from = None;
                 hw.link.send(&BoardMessage::ChunkOk { next: 0 });
             }
             HostMessage::RecordChunk {
@@ -330,7 +349,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 // The host's settings of the same name, so that the answer is bit-identical.
                 let cfg = pipeline.config(seed);
                 // Failures have been reported on the link.
-                let _ = self.identify_and_report(&cfg, hw, false);
+                let _ = self.identify_and_report(&ProblemSpec::default(), &cfg, hw, false);
             }
             HostMessage::Commission { seed } => {
                 // The result or the failure has been reported on the link.
@@ -352,6 +371,7 @@ impl<'s, const N: usize> Service<'s, N> {
     /// iteration; `Abort` from the host stops it. With `store`, the result is kept.
     fn identify_and_report<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
         &mut self,
+        spec: &ProblemSpec,
         cfg: &IdentifyConfig,
         hw: &mut Hardware<L, D, P, W>,
         store: bool,
@@ -359,7 +379,7 @@ impl<'s, const N: usize> Service<'s, N> {
         let record = [self.store.record()];
         let mut aborted = false;
         let (link, watchdog) = (&mut hw.link, &mut hw.watchdog);
-        let result = identify(&record, &ProblemSpec::default(), cfg, |p: &Progress| {
+        let result = identify(&record, spec, cfg, |p: &Progress| {
             watchdog.feed();
             link.send(&BoardMessage::Progress {
                 stage: match p.stage {
@@ -424,11 +444,11 @@ impl<'s, const N: usize> Service<'s, N> {
         Err(Refusal::NotAtRest)
     }
 
-    /// Self-commissioning: safety checks, then a bounded experiment (seed Section 6 speed
-    /// changes: voltage steps ½ → 1 → ¼ of the voltage limit over the record's length, read
-    /// on tacho and current; a trip of the current or speed limit stops the drive and
-    /// aborts), identification in fixed memory with progress (the board pipeline), store,
-    /// report.
+    /// Self-commissioning: safety checks, then a bounded experiment over the record's
+    /// length (see [`commissioning_input`]: seed Section 6 speed changes, then a coast-down
+    /// for friction; a trip of the current or speed limit stops the drive and aborts), read
+    /// on tacho and current, identification in fixed memory with progress (the board
+    /// pipeline, Coulomb friction free: [`commissioning_spec`]), store, report.
     pub fn commission<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
         &mut self,
         seed: u64,
@@ -439,34 +459,29 @@ impl<'s, const N: usize> Service<'s, N> {
             return fail(JobEnd::Refused(r), &mut hw.link);
         }
         let dt = hw.drive.dt();
-        let experiment = Experiment {
-            profile: Profile::Steps,
-            voltage: self.limits.voltage,
-            duration: dt * N as f32,
-            load_torque: 0.0,
-        };
         let s = &mut *self.store;
         s.dt = dt;
         s.with_current = true;
         s.len = 0;
         s.expected = N;
+        s.coast_from = Some(coast_start(N));
         for k in 0..N {
             hw.watchdog.feed();
-            // min/max rather than clamp: clamp's NaN/order assertion would link float
-            // formatting (about 10 KB of flash) for a panic that cannot happen here.
-            let v = experiment
-                .at(k as f32 * dt)
-                .v
-                .min(self.limits.voltage)
-                .max(-self.limits.voltage);
-            let sample = hw.drive.step(v);
+            let input = commissioning_input(k, N, dt, self.limits.voltage);
+            let sample = match input {
+                Bridge::Drive(v) => hw.drive.step(v),
+                Bridge::Open => hw.drive.coast(),
+            };
             let within = sample.current.abs() <= self.limits.current
                 && sample.omega.abs() <= self.limits.speed;
             if !within {
                 hw.drive.stop();
                 return fail(JobEnd::Refused(Refusal::Trip), &mut hw.link);
             }
-            s.v[k] = v;
+            s.v[k] = match input {
+                Bridge::Drive(v) => v,
+                Bridge::Open => 0.0,
+            };
             s.omega[k] = sample.omega;
             s.current[k] = sample.current;
             s.len = k + 1;
@@ -484,8 +499,59 @@ impl<'s, const N: usize> Service<'s, N> {
             }
         }
         hw.drive.stop();
-        self.identify_and_report(&IdentifyConfig::board(seed), hw, true)
+        self.identify_and_report(
+            &commissioning_spec(),
+            &IdentifyConfig::board(seed),
+            hw,
+            true,
+        )
     }
+}
+
+/// What the bridge does over one sample of the commissioning experiment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bridge {
+    /// Apply this armature voltage [V].
+    Drive(f32),
+    /// Every switch off: the motor coasts.
+    Open,
+}
+
+/// First sample of the coast-down in a commissioning record of `n` samples: the last
+/// quarter coasts.
+pub const fn coast_start(n: usize) -> usize {
+    n - n / 4
+}
+
+/// Input of sample `k` of the commissioning experiment of `n` samples at step `dt` within
+/// `voltage`: the voltage steps ½ → 1 → ¼ of the limit ([`Profile::Steps`], seed Section 6
+/// speed changes) over the first three quarters, then a coast-down (bridge open) over the
+/// last quarter. The steps excite the electrical and mechanical modes with the current
+/// measured; the coast-down shows the friction alone (seed Eq. 4 with `i = 0`), which
+/// separates Coulomb from viscous friction without the electrical parameters.
+pub fn commissioning_input(k: usize, n: usize, dt: f32, voltage: f32) -> Bridge {
+    let coast_from = coast_start(n);
+    if k >= coast_from {
+        return Bridge::Open;
+    }
+    let steps = Experiment {
+        profile: Profile::Steps,
+        voltage,
+        duration: dt * coast_from as f32,
+        load_torque: 0.0,
+    };
+    // min/max rather than clamp: clamp's NaN/order assertion would link float formatting
+    // (about 10 KB of flash) for a panic that cannot happen here.
+    Bridge::Drive(steps.at(k as f32 * dt).v.min(voltage).max(-voltage))
+}
+
+/// The problem a board solves when it commissions itself: the five motor parameters within
+/// the seed's Table 1 and Coulomb friction `tc` (which the coast-down pins), the other
+/// effects left out.
+pub fn commissioning_spec() -> ProblemSpec {
+    let mut spec = ProblemSpec::default();
+    spec.free(ParamId::Tc);
+    spec
 }
 
 #[cfg(test)]
@@ -559,8 +625,18 @@ mod tests {
         }
     }
 
+    /// Coulomb friction of the test plant [N m]: a fifth of the viscous torque at the
+    /// speed of the last voltage step.
+    const PLANT_TC: f32 = 0.05;
+
+    /// The seed's motor with Coulomb friction `tc`, sampled at 100 Hz with sensor noise.
+    fn plant_with_friction(tc: f32) -> SimulatedPlant {
+        let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+        SimulatedPlant::new(&p, 0.01, 0.5, 0.02, 7).unwrap()
+    }
+
     fn seed_plant() -> SimulatedPlant {
-        SimulatedPlant::new(&ModelParams::SEED_MOTOR, 0.01, 0.5, 0.02, 7).unwrap()
+        plant_with_friction(PLANT_TC)
     }
 
     fn progress_count(sent: &[BoardMessage]) -> u32 {
@@ -581,7 +657,13 @@ mod tests {
         for (got, want) in report.params.iter().zip(truth) {
             assert!((got / want - 1.0).abs() < 0.03, "{got} vs {want}");
         }
-        assert_eq!(report.rank, 5, "speed and current pin all five");
+        let friction = report.friction.expect("commissioning identifies friction");
+        assert!(
+            (friction.value / PLANT_TC - 1.0).abs() < 0.03,
+            "tc {friction:?}"
+        );
+        assert!(friction.std < 0.1 * PLANT_TC, "tc {friction:?}");
+        assert_eq!(report.rank, 6, "speed, current and coast-down pin all six");
         assert_eq!(hw.params.0, Some(report));
         assert_eq!(hw.drive.stopped, 1, "drive removed after the experiment");
         assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Identified(report)));
@@ -595,6 +677,63 @@ mod tests {
         assert_eq!(service.boot(&mut hw), Boot::InService(report));
         assert!(hw.link.sent.is_empty());
         assert_eq!(hw.params.1, 1, "stored once");
+    }
+
+    #[test]
+    fn a_motor_without_coulomb_friction_commissions_with_none() {
+        let mut store = RecordStore::<SAMPLES>::new();
+        let mut service = Service::new(&mut store, LIMITS);
+        let mut hw = hardware(plant_with_friction(0.0));
+        let report = service.commission(1, &mut hw).expect("commissioned");
+        let friction = report.friction.expect("commissioning identifies friction");
+        // Within three standard deviations of none, and under 1 % of the stall torque.
+        assert!(friction.value <= 3.0 * friction.std, "tc {friction:?}");
+        assert!(
+            friction.value < 0.01 * 0.1604 * 50.0 / 3.412,
+            "tc {friction:?}"
+        );
+        assert!(
+            (report.params[3] / 0.00267 - 1.0).abs() < 0.03,
+            "{report:?}"
+        );
+    }
+
+    #[test]
+    fn the_experiment_ends_with_a_coast_down_in_which_friction_alone_slows_the_shaft() {
+        let (n, dt, volts) = (SAMPLES, 0.01, LIMITS.voltage);
+        let coast = coast_start(n);
+        assert_eq!(coast, 1500);
+        let inputs: Vec<Bridge> = (0..n)
+            .map(|k| commissioning_input(k, n, dt, volts))
+            .collect();
+        assert_eq!(inputs[0], Bridge::Drive(0.5 * volts));
+        assert_eq!(inputs[700], Bridge::Drive(volts));
+        assert_eq!(inputs[coast - 1], Bridge::Drive(0.25 * volts));
+        assert!(inputs[coast..].iter().all(|b| *b == Bridge::Open));
+        // Run it on a noise-free plant: in the coast-down no current flows and the speed
+        // follows seed Eq. 4 with i = 0, w(t) = (w0 + tc/B) e^(-B t / J) - tc/B.
+        let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, PLANT_TC);
+        let mut plant = SimulatedPlant::new(&p, dt, 0.0, 0.0, 1).unwrap();
+        let samples: Vec<Sample> = inputs
+            .iter()
+            .map(|b| match b {
+                Bridge::Drive(v) => plant.step(*v),
+                Bridge::Open => plant.coast(),
+            })
+            .collect();
+        let w0 = samples[coast].omega;
+        assert!(w0 > 50.0, "turning when the bridge opens: {w0}");
+        let (j, b, tc) = (0.0424f32, 0.00267f32, PLANT_TC);
+        for (m, s) in samples[coast + 1..].iter().enumerate() {
+            let t = (m + 1) as f32 * dt;
+            let want = (w0 + tc / b) * (-b * t / j).exp() - tc / b;
+            assert!(
+                (s.omega - want).abs() < 1e-3 * w0,
+                "{t} s: {} vs {want}",
+                s.omega
+            );
+            assert_eq!(s.current, 0.0);
+        }
     }
 
     #[test]
@@ -666,12 +805,13 @@ mod tests {
         let mut store = RecordStore::<SAMPLES>::new();
         let mut service = Service::new(&mut store, LIMITS);
         let mut hw = hardware(seed_plant());
-        // Polls 1..=8 fall in the experiment (every 256 samples); later ones in the fit.
+        // Polls 1..=8 fall in the experiment (every 256 samples), later ones in the fit: the
+        // hello comes at the fit's first poll, the abort at its second.
         let hello = HostMessage::Hello {
             version: PROTOCOL_VERSION,
         };
-        hw.link.incoming.push_back((9, hello));
-        hw.link.incoming.push_back((10, HostMessage::Abort));
+        hw.link.incoming.push_back((8, hello));
+        hw.link.incoming.push_back((9, HostMessage::Abort));
         assert_eq!(
             service.boot(&mut hw),
             Boot::NotCommissioned(JobEnd::Aborted)

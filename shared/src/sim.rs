@@ -12,6 +12,7 @@
 use crate::discretise::Discrete;
 use crate::error::Error;
 use crate::params::{ModelParams, ParamId};
+use crate::record::Record;
 
 pub use crate::capacity::MAX_DELAY_SAMPLES;
 const RING: usize = MAX_DELAY_SAMPLES + 2;
@@ -130,9 +131,16 @@ pub struct Simulator {
     /// The tacho reading lags (`delay_whole` or `delay_frac` non-zero): readings go
     /// through `ring`; otherwise the newest one is `tacho`.
     delayed: bool,
-    /// No effect acts on the dynamics or the reading: [`Simulator::step`] takes the plain
-    /// linear step (the same arithmetic as the general one with every effect at zero).
+    /// No effect acts on the dynamics or the reading.
+    linear: bool,
+    /// `linear` and the bridge closed: [`Simulator::step`] takes the plain linear step (the
+    /// same arithmetic as the general one with every effect at zero).
     plain: bool,
+    /// No effect but Coulomb friction (if any): a turning shaft takes
+    /// [`Simulator::step_friction`].
+    friction_only: bool,
+    /// The bridge is open (coast-down): no armature current, the voltage is not applied.
+    open: bool,
     /// Newest tacho reading.
     tacho: f32,
     current: Compensated,
@@ -165,7 +173,9 @@ impl Simulator {
         );
         let ripple_amp = p.get(ParamId::RippleAmp);
         let delayed = delay_whole != 0 || delay_frac != 0.0;
-        let plain = tc == 0.0 && kq == 0.0 && kar == 0.0 && vb == 0.0 && ripple_amp == 0.0;
+        let others = kq == 0.0 && kar == 0.0 && vb == 0.0 && ripple_amp == 0.0;
+        let linear = tc == 0.0 && others;
+        let friction_only = others;
         let mut s = Simulator {
             disc,
             dt,
@@ -180,7 +190,10 @@ impl Simulator {
             delay_whole,
             delay_frac,
             delayed,
-            plain,
+            linear,
+            plain: linear,
+            friction_only,
+            open: false,
             tacho: 0.0,
             current: Compensated::new(0.0),
             omega: Compensated::new(0.0),
@@ -202,6 +215,8 @@ impl Simulator {
         self.psi = 0.0;
         self.shaft_stuck = self.tc > 0.0 && init.omega == 0.0;
         self.current_stuck = self.vb > 0.0 && init.current == 0.0;
+        self.open = false;
+        self.plain = self.linear;
         self.head = 0;
         self.filled = 0;
         self.push_reading();
@@ -268,6 +283,29 @@ impl Simulator {
         self.omega.hi
     }
 
+    /// Open the bridge (a coast-down, see [`crate::record::Record::coast_from`]): from now on
+    /// no armature current flows and the voltage given to the steps is not applied; the
+    /// shaft obeys seed Eq. 4 with `i = 0` (viscous and Coulomb friction, load). The current
+    /// is taken to vanish at once: in a real bridge it decays through the freewheel diodes
+    /// against the bus voltage within `La/Ra ln(1 + Ra i / (Vbus + Kv w))`, a fraction of
+    /// a sample at commissioning rates for the small current of a steady speed.
+    pub fn open_circuit(&mut self) {
+        self.open = true;
+        self.plain = false;
+        self.current.set(0.0);
+        self.current_stuck = false;
+    }
+
+    /// Close the bridge again after [`Simulator::open_circuit`] (nothing changes when it is
+    /// closed): the steps apply their voltage from zero current.
+    pub fn close_circuit(&mut self) {
+        if self.open {
+            self.open = false;
+            self.plain = self.linear;
+            self.current_stuck = self.vb > 0.0;
+        }
+    }
+
     /// Advance one step with armature voltage `v` and known load torque `tl` held over it.
     pub fn advance(&mut self, v: f32, tl: f32) {
         self.step(v, tl, None);
@@ -285,6 +323,16 @@ impl Simulator {
     fn step(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         if self.plain {
             self.step_plain(v, tl);
+        } else {
+            self.step_nonlinear(v, tl, measured_omega);
+        }
+    }
+
+    /// Every step but the plain one: one copy of it in flash, however many fit loops call it.
+    #[inline(never)]
+    fn step_nonlinear(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
+        if self.friction_only && !self.shaft_stuck && self.omega.hi != 0.0 {
+            self.step_friction(v, tl);
         } else {
             self.step_with_effects(v, tl, measured_omega);
         }
@@ -304,6 +352,31 @@ impl Simulator {
         self.push_reading();
     }
 
+    /// Seed Eq. 5 with no effect but Coulomb friction, shaft turning: the friction
+    /// `tc sign(w)` is a load held over the step (with the bridge open, seed Eq. 4 alone
+    /// with `i = 0`), and a shaft whose speed crosses zero sticks there. The hot path of a
+    /// commissioning fit; the same arithmetic as [`Simulator::step_with_effects`] in this
+    /// case.
+    #[inline(always)]
+    fn step_friction(&mut self, v: f32, tl: f32) {
+        let (i0, w0) = (self.current.hi, self.omega.hi);
+        let friction = self.tc * sign(w0);
+        let load = tl + friction;
+        let d = &self.disc;
+        if self.open {
+            self.omega.add(d.am * w0 + d.gm * load);
+        } else {
+            self.current
+                .add(d.d[0][0] * i0 + d.d[0][1] * w0 + d.gv[0] * v + d.gt[0] * load);
+            self.omega
+                .add(d.d[1][0] * i0 + d.d[1][1] * w0 + d.gv[1] * v + d.gt[1] * load);
+        }
+        if self.tc > 0.0 {
+            stick_on_crossing(w0, friction, &mut self.omega, &mut self.shaft_stuck);
+        }
+        self.push_reading();
+    }
+
     #[inline(never)]
     fn step_with_effects(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         let i0 = self.current.hi;
@@ -316,7 +389,9 @@ impl Simulator {
         let mut load = tl + dkv * i0 + self.kq * w0 * w0.abs();
         let mut brush = 0.0;
         let mut friction = 0.0;
-        let current_moves = if self.vb > 0.0 {
+        let current_moves = if self.open {
+            false
+        } else if self.vb > 0.0 {
             match dead_zone_opposition(i0, volts - self.kv * w0, self.vb, &mut self.current_stuck) {
                 Some(o) => {
                     brush = o;
@@ -368,32 +443,34 @@ impl Simulator {
     }
 }
 
-/// Simulate a whole record: `out_omega[k]` and `out_current[k]` are the readings at sample
-/// `k`, before the input of sample `k` is applied (the convention of [`crate::record`]).
-/// With `measured_omega`, the ripple angle tracks it (see [`Simulator::advance_tracking`]).
-#[allow(clippy::too_many_arguments)]
+/// Simulate record `r`'s inputs (voltage, load, coast-down) from `init`:
+/// `out_omega[k]` and `out_current[k]` are the readings at sample `k`, before the input of
+/// sample `k` is applied (the convention of [`crate::record`]). With `track_angle`, the
+/// ripple angle follows the record's measured speed (see [`Simulator::advance_tracking`]).
 pub fn simulate(
     p: &ModelParams,
-    dt: f32,
+    r: &Record,
     init: InitialState,
-    v: &[f32],
-    tl: Option<&[f32]>,
-    measured_omega: Option<&[f32]>,
+    track_angle: bool,
     out_omega: &mut [f32],
     out_current: &mut [f32],
 ) -> Result<(), Error> {
-    let n = v.len();
-    let bad = |x: Option<&[f32]>| x.is_some_and(|t| t.len() != n);
-    if out_omega.len() != n || out_current.len() != n || bad(tl) || bad(measured_omega) {
+    let n = r.len();
+    if out_omega.len() != n || out_current.len() != n {
         return Err(Error::LengthMismatch);
     }
-    let mut sim = Simulator::new(p, dt, init)?;
+    r.validate()?;
+    let mut sim = Simulator::new(p, r.dt, init)?;
+    let coast = r.coast_index();
     for k in 0..n {
-        let r = sim.reading();
-        out_omega[k] = r.omega;
-        out_current[k] = r.current;
-        let rate = measured_omega.map(|m| crate::record::trapezoid_rate(m, k));
-        sim.step(v[k], tl.map_or(0.0, |t| t[k]), rate);
+        let y = sim.reading();
+        out_omega[k] = y.omega;
+        out_current[k] = y.current;
+        if k == coast {
+            sim.open_circuit();
+        }
+        let rate = track_angle.then(|| r.angle_rate(k));
+        sim.step(r.v[k], r.load_at(k), rate);
     }
     Ok(())
 }
@@ -409,7 +486,15 @@ mod tests {
     fn trace(p: &ModelParams, dt: f32, n: usize) -> Vec<f32> {
         let v = vec![50.0f32; n];
         let (mut w, mut i) = (vec![0.0; n], vec![0.0; n]);
-        simulate(p, dt, InitialState::REST, &v, None, None, &mut w, &mut i).unwrap();
+        let r = Record {
+            dt,
+            v: &v,
+            omega: &w.clone(),
+            current: None,
+            load: None,
+            coast_from: None,
+        };
+        simulate(p, &r, InitialState::REST, false, &mut w, &mut i).unwrap();
         w
     }
 
@@ -453,6 +538,55 @@ mod tests {
         let free = trace(&ModelParams::SEED_MOTOR, 1e-3, 30_000);
         let with = trace(&p, 1e-3, 30_000);
         assert!(with[29_999] > 0.0 && with[29_999] < free[29_999]);
+    }
+
+    #[test]
+    fn the_friction_fast_path_is_the_general_step_bit_for_bit() {
+        // Reversal (the shaft crosses zero and sticks), then a coast-down; also without
+        // friction (the coast-down takes the fast path too).
+        for (tc, rate) in [
+            (0.0f32, 100.0f32),
+            (0.05, 100.0),
+            (0.5, 1000.0),
+            (2.0, 1000.0),
+        ] {
+            let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+            let dt = 1.0 / rate;
+            let n = (60.0 * rate) as usize;
+            let exp = Experiment {
+                profile: Profile::Reversal,
+                voltage: 50.0,
+                duration: 40.0,
+                load_torque: 0.0,
+            };
+            let mut fast = Simulator::new(&p, dt, InitialState::REST).unwrap();
+            let mut general = fast.clone();
+            general.friction_only = false;
+            let (mut fast_steps, mut stuck) = (0, 0);
+            for k in 0..n {
+                let (a, b) = (fast.reading(), general.reading());
+                assert_eq!(a.omega.to_bits(), b.omega.to_bits(), "tc {tc}, sample {k}");
+                assert_eq!(
+                    a.current.to_bits(),
+                    b.current.to_bits(),
+                    "tc {tc}, sample {k}"
+                );
+                if k == (40.0 * rate) as usize {
+                    fast.open_circuit();
+                    general.open_circuit();
+                }
+                fast_steps += usize::from(!fast.shaft_stuck && fast.omega() != 0.0);
+                stuck += usize::from(fast.shaft_stuck);
+                let v = exp.at(k as f32 * dt).v;
+                fast.advance(v, 0.0);
+                general.advance(v, 0.0);
+            }
+            assert!(
+                fast_steps > n / 2,
+                "tc {tc}: fast path taken {fast_steps} of {n}"
+            );
+            assert!(tc == 0.0 || stuck > 0, "tc {tc}: the shaft never stuck");
+        }
     }
 
     #[test]

@@ -9,7 +9,7 @@ use crate::protocol::MotorReport;
 pub const MAGIC: u32 = u32::from_le_bytes(*b"MIDP");
 
 /// Layout version of the stored record; bumped whenever [`MotorReport`] changes shape.
-pub const STORE_VERSION: u16 = 1;
+pub const STORE_VERSION: u16 = 2;
 
 /// Bytes a stored record occupies at most (header, payload, CRC), a multiple of 4 so that the
 /// board programs it word by word.
@@ -24,7 +24,7 @@ pub fn encode(report: &MotorReport) -> [u8; STORED_LEN] {
     let payload_room = STORED_LEN - HEADER - 4;
     let used = postcard::to_slice(report, &mut out[HEADER..HEADER + payload_room])
         .map(|s| s.len())
-        // A MotorReport is at most 5*4*2 + 4 + 5 + 1 bytes: it always fits.
+        // A MotorReport is at most 5*4*2 + 9 + 4 + 5 + 1 bytes: it always fits.
         .unwrap_or(0);
     out[..4].copy_from_slice(&MAGIC.to_le_bytes());
     out[4..6].copy_from_slice(&STORE_VERSION.to_le_bytes());
@@ -59,11 +59,16 @@ pub fn decode(bytes: &[u8]) -> Option<MotorReport> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::protocol::Estimate;
 
     fn report() -> MotorReport {
         MotorReport {
             params: [3.412, 0.0573, 0.0424, 0.00267, 0.1604],
             std: [0.01, 1e-4, f32::NAN, 2e-5, 3e-4],
+            friction: Some(Estimate {
+                value: 0.05,
+                std: f32::NAN,
+            }),
             rmse_omega: 0.51,
             evaluations: 64,
             rank: 5,
@@ -74,6 +79,8 @@ mod tests {
         let bits = |x: &[f32; 5]| x.map(f32::to_bits);
         bits(&a.params) == bits(&b.params)
             && bits(&a.std) == bits(&b.std)
+            && a.friction.map(|f| [f.value.to_bits(), f.std.to_bits()])
+                == b.friction.map(|f| [f.value.to_bits(), f.std.to_bits()])
             && a.rmse_omega.to_bits() == b.rmse_omega.to_bits()
             && a.evaluations == b.evaluations
             && a.rank == b.rank

@@ -57,6 +57,7 @@ impl Owned {
             omega: &self.omega,
             current: with_current.then_some(&self.current[..]),
             load: with_load.then_some(&self.tl[..]),
+            coast_from: None,
         }
     }
 }

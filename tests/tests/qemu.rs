@@ -67,7 +67,8 @@ fn board_identify_is_bit_identical_to_host_identify() {
     run_ok(&["board", "--port", &q.pty, "hello"]);
 }
 
-/// The QEMU build's plant is the seed paper's motor.
+/// The QEMU build's plant is the seed paper's motor with Coulomb friction 0.05 N m, which
+/// commissioning identifies from its coast-down.
 fn assert_seed_motor(r: &serde_json::Value) {
     let truth = [
         ("ra", 3.412),
@@ -75,6 +76,7 @@ fn assert_seed_motor(r: &serde_json::Value) {
         ("j", 0.0424),
         ("b", 0.00267),
         ("kv", 0.1604),
+        ("tc", 0.05),
     ];
     for (name, t) in truth {
         let got = r["params"][name].as_f64().unwrap();
@@ -105,7 +107,12 @@ fn first_power_up_commissions_and_the_host_commissions_again_after_clear() {
     ]);
     let r = json(&again);
     assert_seed_motor(&r);
-    assert_eq!(r["identifiability"]["rank"], 5, "{r}");
+    assert_eq!(r["identifiability"]["rank"], 6, "{r}");
+    assert_eq!(r["identifiability"]["free"], 6, "{r}");
+    assert_eq!(
+        r["identifiability"]["parameters"]["tc"]["pinned"], true,
+        "{r}"
+    );
     let stored = run_ok(&["board", "--port", &q.pty, "params"]);
     assert!(stored.contains("rmse_omega"), "{stored}");
 }

@@ -74,6 +74,14 @@ fn pin_volts(raw: u16) -> f32 {
     raw as f32 * (ADC_VOLTS / ADC_COUNTS)
 }
 
+/// The sensor readings of one ADC pair.
+fn reading(tacho: u16, current: u16) -> Sample {
+    Sample {
+        omega: (pin_volts(tacho) - TACHO_ZERO_V) * TACHO_RAD_S_PER_V,
+        current: (pin_volts(current) - CURRENT_ZERO_V) * CURRENT_A_PER_V,
+    }
+}
+
 impl BoardDrive {
     /// Configure PWM (bridge disabled), ADC, DMA and the sample timer, and start sampling.
     pub fn new(p: Peripherals, rcc: &mut Rcc) -> Self {
@@ -163,10 +171,13 @@ impl Drive for BoardDrive {
             self.leg_b.set_duty(duty);
         }
         self.enable.set_high();
-        Sample {
-            omega: (pin_volts(tacho) - TACHO_ZERO_V) * TACHO_RAD_S_PER_V,
-            current: (pin_volts(current) - CURRENT_ZERO_V) * CURRENT_A_PER_V,
-        }
+        reading(tacho, current)
+    }
+
+    fn coast(&mut self) -> Sample {
+        let [tacho, current] = self.next_pair();
+        self.stop();
+        reading(tacho, current)
     }
 
     fn stop(&mut self) {
