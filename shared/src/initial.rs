@@ -389,11 +389,20 @@ mod tests {
             (ParamId::La, 0.3),
         ] {
             let rel = (est.get(id) / truth.get(id) - 1.0).abs();
-            assert!(rel < tol, "{}: {} vs {}", id.name(), est.get(id), truth.get(id));
+            assert!(
+                rel < tol,
+                "{}: {} vs {}",
+                id.name(),
+                est.get(id),
+                truth.get(id)
+            );
         }
         // Without the friction term, viscous friction absorbs it.
         let linear = equation_error(&[record], false).unwrap();
-        assert!(linear.get(ParamId::B) > 1.1 * truth.get(ParamId::B), "{linear:?}");
+        assert!(
+            linear.get(ParamId::B) > 1.1 * truth.get(ParamId::B),
+            "{linear:?}"
+        );
         assert_eq!(linear.get(ParamId::Tc), 0.0);
     }
 

@@ -1,17 +1,24 @@
 //! Footprint meter of the QEMU build: SysTick ticks spent from a request to identify
-//! (`Identify`, or `Commission`: experiment and identification) until its result, and the stack high-water mark (the stack is
+//! (`Identify`, or `Commission`: experiment and identification) until its result, the ticks
+//! of the identification alone (from the drive's stop at the end of a commissioning
+//! experiment; the whole job for `Identify`), and the stack high-water mark (the stack is
 //! painted at reset by cortex-m-rt's `paint-stack`). Under `qemu-system-arm -icount shift=0`
 //! one instruction advances the virtual clock by 1 ns and SysTick (168 MHz) by 0.168 ticks,
 //! so the tick count is a deterministic instruction count. One plain-text line per job goes
 //! to semihosting stderr (defmt's binary log is on stdout):
-//! `footprint: job=identify|commission ticks=T stack_bytes=S samples=N` (`samples` of the
-//! last record streamed in; a commissioning records its own).
+//! `footprint: job=identify|commission ticks=T fit_ticks=F stack_bytes=S samples=N`
+//! (`samples` of the last record streamed in; a commissioning records its own).
 
+use core::cell::Cell;
 use core::sync::atomic::{AtomicU32, Ordering};
+use cortex_m::interrupt::{self, Mutex};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::exception;
 use motor_id_shared::protocol::{BoardMessage, HostMessage};
-use motor_id_shared::service::Link;
+use motor_id_shared::service::{Drive, Link, Sample};
+
+/// When the drive was last stopped [ticks] (the end of a commissioning experiment).
+static DRIVE_STOPPED: Mutex<Cell<u64>> = Mutex::new(Cell::new(0));
 
 /// SysTick wraps (every 2^24 ticks).
 static WRAPS: AtomicU32 = AtomicU32::new(0);
@@ -85,11 +92,17 @@ impl<L: Link> Link for MeteredLink<L> {
         let done = matches!(msg, BoardMessage::Identified(_));
         if let Some((t0, commission)) = self.started.filter(|_| done) {
             self.started = None;
-            let ticks = now() - t0;
+            let end = now();
+            let fit_from = if commission {
+                interrupt::free(|cs| DRIVE_STOPPED.borrow(cs).get()).max(t0)
+            } else {
+                t0
+            };
             cortex_m_semihosting::heprintln!(
-                "footprint: job={} ticks={} stack_bytes={} samples={}",
+                "footprint: job={} ticks={} fit_ticks={} stack_bytes={} samples={}",
                 if commission { "commission" } else { "identify" },
-                ticks,
+                end - t0,
+                end - fit_from,
                 stack_high_water(),
                 self.samples
             );
@@ -106,5 +119,25 @@ impl<L: Link> Link for MeteredLink<L> {
             _ => {}
         }
         msg
+    }
+}
+
+/// A drive that notes when it is stopped (see [`DRIVE_STOPPED`]).
+pub struct MeteredDrive<D>(pub D);
+
+impl<D: Drive> Drive for MeteredDrive<D> {
+    fn dt(&self) -> f32 {
+        self.0.dt()
+    }
+    fn step(&mut self, volts: f32) -> Sample {
+        self.0.step(volts)
+    }
+    fn coast(&mut self) -> Sample {
+        self.0.coast()
+    }
+    fn stop(&mut self) {
+        self.0.stop();
+        let t = now();
+        interrupt::free(|cs| DRIVE_STOPPED.borrow(cs).set(t));
     }
 }

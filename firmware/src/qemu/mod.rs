@@ -60,7 +60,7 @@ impl StatusLed for LogLed {
 /// The emulated board's hardware.
 pub type QemuHardware = Hardware<
     meter::MeteredLink<SerialLink<usart::Usart1>>,
-    SimulatedPlant,
+    meter::MeteredDrive<SimulatedPlant>,
     FlashStore<RamFlash>,
     NoWatchdog,
 >;
@@ -75,7 +75,7 @@ pub fn init() -> (QemuHardware, LogLed) {
         .expect("the seed motor simulates");
     let hw = Hardware {
         link,
-        drive,
+        drive: meter::MeteredDrive(drive),
         params: FlashStore(RamFlash([0xFF; STORED_LEN])),
         watchdog: NoWatchdog,
     };
