@@ -51,12 +51,13 @@ pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
         }
         Boot::Commissioned(r) => {
             defmt::info!(
-                "commissioned: ra={} la={} j={} b={} kv={}, rmse {} rad/s, {} evaluations; stored",
+                "commissioned: ra={} la={} j={} b={} kv={} tc={}, rmse {} rad/s, {} evaluations; stored",
                 r.params[0],
                 r.params[1],
                 r.params[2],
                 r.params[3],
                 r.params[4],
+                r.friction.map_or(f32::NAN, |f| f.value),
                 r.rmse_omega,
                 r.evaluations
             );

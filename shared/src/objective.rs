@@ -488,13 +488,16 @@ impl RecordSums {
     /// Add the Jacobian terms of one sample: columns of the speed and (weighted) current
     /// residuals, and those residuals.
     fn add_jacobian(&mut self, rw: f32, ri: f32, col_w: &[f32], col_i: &[f32]) {
-        let mut entry = 0;
         for a in 0..col_w.len() {
-            for b in 0..=a {
-                self.jtj.0[entry].add(col_w[a] * col_w[b] + col_i[a] * col_i[b]);
-                entry += 1;
+            let (wa, ia) = (col_w[a], col_i[a]);
+            // Row `a` of the triangle, zipped with the columns: no index checks in the
+            // innermost loop of every refinement.
+            let start = triangle_index(a, 0);
+            let row = &mut self.jtj.0[start..=start + a];
+            for ((entry, wb), ib) in row.iter_mut().zip(&col_w[..=a]).zip(&col_i[..=a]) {
+                entry.add(wa * wb + ia * ib);
             }
-            self.jtr[a].add(col_w[a] * rw + col_i[a] * ri);
+            self.jtr[a].add(wa * rw + ia * ri);
         }
     }
 

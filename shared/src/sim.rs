@@ -16,6 +16,8 @@ use crate::record::Record;
 
 pub use crate::capacity::MAX_DELAY_SAMPLES;
 const RING: usize = MAX_DELAY_SAMPLES + 2;
+// Ring positions are bytes (a Simulator is copied a dozen times into every Jacobian).
+const _: () = assert!(RING <= 256);
 
 /// Compensated f32 accumulator: `hi + lo` carries about twice the precision of one f32.
 #[derive(Clone, Copy, Debug, Default)]
@@ -126,7 +128,7 @@ pub struct Simulator {
     ripple_cycles: f32,
     ripple_phase: f32,
     /// Delay in samples, split into whole samples and fraction.
-    delay_whole: usize,
+    delay_whole: u8,
     delay_frac: f32,
     /// The tacho reading lags (`delay_whole` or `delay_frac` non-zero): readings go
     /// through `ring`; otherwise the newest one is `tacho`.
@@ -150,8 +152,8 @@ pub struct Simulator {
     shaft_stuck: bool,
     current_stuck: bool,
     ring: [f32; RING],
-    head: usize,
-    filled: usize,
+    head: u8,
+    filled: u8,
 }
 
 impl Simulator {
@@ -163,7 +165,8 @@ impl Simulator {
         if delay > MAX_DELAY_SAMPLES as f32 {
             return Err(Error::DelayTooLong);
         }
-        let delay_whole = libm::floorf(delay) as usize;
+        // At most MAX_DELAY_SAMPLES (checked above), so it fits a ring position.
+        let delay_whole = libm::floorf(delay) as u8;
         let delay_frac = delay - delay_whole as f32;
         let (tc, kq, kar, vb) = (
             p.get(ParamId::Tc),
@@ -243,17 +246,23 @@ impl Simulator {
 
     #[inline(always)]
     fn push_reading(&mut self) {
-        self.tacho = self.tacho_now();
+        self.push_tacho(self.tacho_now());
+    }
+
+    #[inline(always)]
+    fn push_tacho(&mut self, tacho: f32) {
+        self.tacho = tacho;
         if self.delayed {
-            self.head = (self.head + 1) % RING;
-            self.ring[self.head] = self.tacho;
-            self.filled = (self.filled + 1).min(RING);
+            let head = (usize::from(self.head) + 1) % RING;
+            self.ring[head] = self.tacho;
+            self.head = head as u8;
+            self.filled = (usize::from(self.filled) + 1).min(RING) as u8;
         }
     }
 
     fn ring_back(&self, n: usize) -> f32 {
-        let n = n.min(self.filled - 1);
-        self.ring[(self.head + RING - n) % RING]
+        let n = n.min(usize::from(self.filled) - 1);
+        self.ring[(usize::from(self.head) + RING - n) % RING]
     }
 
     /// What the sensors read now.
@@ -262,8 +271,9 @@ impl Simulator {
         let omega = if !self.delayed {
             self.tacho
         } else {
-            let a = self.ring_back(self.delay_whole);
-            let b = self.ring_back(self.delay_whole + 1);
+            let whole = usize::from(self.delay_whole);
+            let a = self.ring_back(whole);
+            let b = self.ring_back(whole + 1);
             a + self.delay_frac * (b - a)
         };
         Reading {
@@ -331,7 +341,7 @@ impl Simulator {
     /// Every step but the plain one: one copy of it in flash, however many fit loops call it.
     #[inline(never)]
     fn step_nonlinear(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
-        if self.friction_only && !self.shaft_stuck && self.omega.hi != 0.0 {
+        if self.friction_only && !self.shaft_stuck && self.omega.hi.abs() > 0.0 {
             self.step_friction(v, tl);
         } else {
             self.step_with_effects(v, tl, measured_omega);
@@ -360,7 +370,9 @@ impl Simulator {
     #[inline(always)]
     fn step_friction(&mut self, v: f32, tl: f32) {
         let (i0, w0) = (self.current.hi, self.omega.hi);
-        let friction = self.tc * sign(w0);
+        // `tc sign(w0)` with w0 non-zero and not NaN (see `step_nonlinear`).
+        let forward = w0 > 0.0;
+        let friction = if forward { self.tc } else { -self.tc };
         let load = tl + friction;
         let d = &self.disc;
         if self.open {
@@ -371,10 +383,15 @@ impl Simulator {
             self.omega
                 .add(d.d[1][0] * i0 + d.d[1][1] * w0 + d.gv[1] * v + d.gt[1] * load);
         }
-        if self.tc > 0.0 {
-            stick_on_crossing(w0, friction, &mut self.omega, &mut self.shaft_stuck);
+        // `stick_on_crossing`: a speed that no longer has the sign of w0 sticks at zero.
+        let w1 = self.omega.hi;
+        let kept = if forward { w1 > 0.0 } else { w1 < 0.0 };
+        if self.tc > 0.0 && !kept {
+            self.omega.set(0.0);
+            self.shaft_stuck = true;
         }
-        self.push_reading();
+        // No ripple acts (`friction_only`): the tacho reads the shaft speed.
+        self.push_tacho(self.omega.hi);
     }
 
     #[inline(never)]
