@@ -35,7 +35,7 @@ pub enum Error {
     NoFiniteCandidate,
     /// The tacho delay exceeds what the simulator holds (`MAX_DELAY_SAMPLES` steps).
     DelayTooLong,
-    /// A record's coast-down starts at or after its last sample.
+    /// A record's coast-down starts beyond its last sample.
     CoastOutsideRecord,
 }
 
@@ -70,9 +70,7 @@ impl fmt::Display for Error {
                 "tacho delay td is longer than {} samples",
                 crate::sim::MAX_DELAY_SAMPLES
             ),
-            Error::CoastOutsideRecord => {
-                f.write_str("the coast-down must start before the record's last sample")
-            }
+            Error::CoastOutsideRecord => f.write_str("the coast-down must start within the record"),
         }
     }
 }

@@ -186,6 +186,10 @@ mod tests {
             BoardMessage::Identified(report),
             BoardMessage::Params(Some(report)),
             BoardMessage::Params(None),
+            BoardMessage::Identified(MotorReport {
+                friction: None,
+                ..report
+            }),
             BoardMessage::Cleared,
             BoardMessage::Aborted,
         ]

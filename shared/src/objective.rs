@@ -198,7 +198,6 @@ impl<'r, 'a> Objective<'r, 'a> {
         let mut sums = RecordSums::new(0, with_current, shifted.is_some());
         let tracks = sim.tracks_angle();
         let w = self.current_weight;
-        let coast = r.coast_index();
         match shifted {
             // A record that starts at rest: no initial speed to project out, and the SSE
             // grows monotonically, so a candidate can be abandoned early.
@@ -211,11 +210,7 @@ impl<'r, 'a> Objective<'r, 'a> {
                     {
                         return Err(());
                     }
-                    if k == coast {
-                        sim.open_circuit();
-                    }
-                    let rate = if tracks { r.angle_rate(k) } else { 0.0 };
-                    sim.advance_tracking(r.v[k], r.load_at(k), rate);
+                    sim.apply(&r.step_input(k, tracks));
                 }
             }
             Some(s) => {
@@ -227,14 +222,9 @@ impl<'r, 'a> Objective<'r, 'a> {
                     sums.add_residuals(r, k, y, w);
                     sums.add_shift_response(r, k, y, sim_s.reading(), w, &[], &[]);
                     sums.end_sample();
-                    if k == coast {
-                        sim.open_circuit();
-                        sim_s.open_circuit();
-                    }
-                    let (v, tl) = (r.v[k], r.load_at(k));
-                    let rate = if tracks { r.angle_rate(k) } else { 0.0 };
-                    sim.advance_tracking(v, tl, rate);
-                    sim_s.advance_tracking(v, tl, rate);
+                    let input = r.step_input(k, tracks);
+                    sim.apply(&input);
+                    sim_s.apply(&input);
                 }
             }
         }
@@ -319,7 +309,6 @@ impl<'r, 'a> Objective<'r, 'a> {
             let tracks = sim0.tracks_angle() || sims.iter().any(Simulator::tracks_angle);
             let with_current = r.current.is_some() && w > 0.0;
             let mut sums = RecordSums::new(dim, with_current, sim_s.is_some());
-            let coast = r.coast_index();
             for k in 0..r.len() {
                 let y0 = sim0.reading();
                 let read = |i: usize| if i == NOMINAL { y0 } else { sims[i].reading() };
@@ -339,19 +328,13 @@ impl<'r, 'a> Objective<'r, 'a> {
                     sums.add_shift_response(r, k, y0, s.reading(), w, col_w, col_i);
                 }
                 sums.end_sample();
-                if k == coast {
-                    sim0.open_circuit();
-                    sim_s.iter_mut().for_each(Simulator::open_circuit);
-                    sims.iter_mut().for_each(Simulator::open_circuit);
-                }
-                let (v, tl) = (r.v[k], r.load_at(k));
-                let rate = if tracks { r.angle_rate(k) } else { 0.0 };
-                sim0.advance_tracking(v, tl, rate);
+                let input = r.step_input(k, tracks);
+                sim0.apply(&input);
                 if let Some(s) = sim_s.as_mut() {
-                    s.advance_tracking(v, tl, rate);
+                    s.apply(&input);
                 }
                 for s in sims.iter_mut() {
-                    s.advance_tracking(v, tl, rate);
+                    s.apply(&input);
                 }
             }
             sums.finish_into(w, dim, &mut totals);

@@ -8,6 +8,17 @@ use crate::service::{Drive, Sample};
 use crate::sim::{InitialState, Simulator};
 use crate::Error;
 
+/// Coulomb friction [N m] of the demonstration plant ([`demo_motor`]): a fifth of the
+/// viscous torque at the speed of the commissioning experiment's last voltage step.
+pub const DEMO_FRICTION: f32 = 0.05;
+
+/// The motor the QEMU build simulates and the commissioning tests identify: the seed's
+/// (which has no Coulomb friction) with [`DEMO_FRICTION`], which a real motor has and the
+/// commissioning coast-down is there to find.
+pub fn demo_motor() -> ModelParams {
+    ModelParams::SEED_MOTOR.with(crate::params::ParamId::Tc, DEMO_FRICTION)
+}
+
 /// A simulated motor sampled every `dt`.
 pub struct SimulatedPlant {
     sim: Simulator,

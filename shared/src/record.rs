@@ -3,7 +3,7 @@
 
 use crate::error::Error;
 use crate::params::{ModelParams, ParamId};
-use crate::sim::{sign, InitialState};
+use crate::sim::{sign, InitialState, StepInput};
 
 /// Fewest samples a record may hold.
 pub const MIN_SAMPLES: usize = 8;
@@ -75,14 +75,20 @@ impl<'a> Record<'a> {
             .map_or(self.len(), |c| (c + 1).min(self.len()))
     }
 
-    /// The sample at which the bridge opens, `usize::MAX` without a coast-down (compared
-    /// with the sample index in the fit loops).
-    pub fn coast_index(&self) -> usize {
-        self.coast_from.unwrap_or(usize::MAX)
+    /// What drives the simulation over step `k`; with `track_angle`, the measured speed
+    /// over it (for the tacho ripple, see [`crate::sim::Simulator::apply`]).
+    #[inline(always)]
+    pub fn step_input(&self, k: usize, track_angle: bool) -> StepInput {
+        StepInput {
+            v: self.v[k],
+            tl: self.load_at(k),
+            measured_omega: track_angle.then(|| self.angle_rate(k)),
+            opens: self.coast_from == Some(k),
+        }
     }
 
     /// Mean measured speed over step `k` (trapezoid of readings `k` and `k + 1`): the rate at
-    /// which the rotor angle advances, see [`crate::sim::Simulator::advance_tracking`].
+    /// which the rotor angle advances, see [`crate::sim::Simulator::apply`].
     pub fn angle_rate(&self, k: usize) -> f32 {
         trapezoid_rate(self.omega, k)
     }

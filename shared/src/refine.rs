@@ -76,9 +76,9 @@ pub fn levenberg_marquardt(
     // Forward differences while far from the optimum; central ones (twice the cost, O(h^2)
     // accurate) once forward ones stall (no damped step lowers the cost), so that the last
     // digits of an ill-conditioned fit are not lost to the O(h) error of a forward-difference
-    // gradient. An accepted step that gains less than `rel_tol` has converged: no central
-    // phase then (it cost a third of the board pipeline's evaluations and changed nothing
-    // measurable: README, benchmark).
+    // gradient. An accepted step that gains less than `rel_tol` has converged: neither its
+    // normal equations nor a central phase follow (together they cost half of the board
+    // pipeline's evaluations and changed no result measurably: README, benchmark).
     let mut central = false;
     let mut ne = objective.normal_equations(space, &u[..dim], cfg.h, central)?;
     let mut evaluations = ne.simulations;
@@ -87,11 +87,10 @@ pub fn levenberg_marquardt(
     let mut completed = true;
     while iterations < cfg.max_iterations {
         iterations += 1;
-        let stalled = match lm_step(objective, space, &mut u, &mut ne, &mut lambda, cfg, central) {
-            StepOutcome::Improved {
-                gain,
-                evaluations: e,
-            } => {
+        let outcome = lm_step(objective, space, &mut u, &mut ne, &mut lambda, cfg, central);
+        let stalled = match outcome {
+            StepOutcome::Improved { evaluations: e }
+            | StepOutcome::Converged { evaluations: e } => {
                 evaluations += e;
                 let report = LmProgress {
                     iteration: iterations,
@@ -102,7 +101,7 @@ pub fn levenberg_marquardt(
                     completed = false;
                     break;
                 }
-                if gain < cfg.rel_tol {
+                if matches!(outcome, StepOutcome::Converged { .. }) {
                     break;
                 }
                 false
@@ -140,9 +139,13 @@ pub fn levenberg_marquardt(
     })
 }
 
+#[derive(Clone, Copy)]
 enum StepOutcome {
-    /// A step was accepted; `gain` is the relative SSE decrease.
-    Improved { gain: f64, evaluations: u32 },
+    /// A step was accepted, with its normal equations.
+    Improved { evaluations: u32 },
+    /// A step was accepted that lowers the SSE by less than `rel_tol`: converged. Its
+    /// normal equations are not computed (nothing would use them); `ne.cost` is its cost.
+    Converged { evaluations: u32 },
     /// No step lowers the cost, whatever the damping.
     Stalled { evaluations: u32 },
     /// The new point's Jacobian could not be simulated.
@@ -150,7 +153,7 @@ enum StepOutcome {
 }
 
 /// One Levenberg-Marquardt iteration: raise the damping until a step lowers the cost, then
-/// take it and recompute the normal equations there.
+/// take it and recompute the normal equations there (unless it converged).
 fn lm_step(
     objective: &Objective,
     space: &Space,
@@ -187,6 +190,13 @@ fn lm_step(
             Some(c) if c.sse < ne.cost.sse => {
                 let gain = (ne.cost.sse - c.sse) / ne.cost.sse.max(f64::MIN_POSITIVE);
                 *lambda = (*lambda / 5.0).max(1e-12);
+                if gain < cfg.rel_tol {
+                    // The refinement ends here: the cost of the point is all it needs (the
+                    // same value the normal equations would give, from the same sums).
+                    *u = trial;
+                    ne.cost = c;
+                    return StepOutcome::Converged { evaluations };
+                }
                 // The point moves only with its normal equations, so that `u` and `ne.cost`
                 // always belong together.
                 return match objective.normal_equations(space, &trial[..dim], cfg.h, central) {
@@ -194,7 +204,7 @@ fn lm_step(
                         evaluations += n.simulations;
                         *u = trial;
                         *ne = n;
-                        StepOutcome::Improved { gain, evaluations }
+                        StepOutcome::Improved { evaluations }
                     }
                     None => StepOutcome::Failed { evaluations },
                 };

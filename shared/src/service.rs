@@ -43,6 +43,13 @@ pub trait Drive {
     /// Wait for the next sample, return it, then keep every bridge switch off until the one
     /// after (open circuit: the motor coasts; the next [`Drive::step`] drives it again).
     fn coast(&mut self) -> Sample;
+    /// [`Drive::step`] or [`Drive::coast`], as `bridge` says.
+    fn apply(&mut self, bridge: Bridge) -> Sample {
+        match bridge {
+            Bridge::Drive(volts) => self.step(volts),
+            Bridge::Open => self.coast(),
+        }
+    }
     /// Remove drive (all bridge switches off: the motor coasts).
     fn stop(&mut self);
 }
@@ -179,27 +186,27 @@ pub struct Service<'s, const N: usize> {
 
 /// Report of an identification in the message form.
 pub fn motor_report(id: &crate::identify::Identification) -> MotorReport {
+    // A free parameter's value and standard deviation (NaN when not pinned); `None` for a
+    // parameter that was not identified.
+    let estimate = |p: ParamId| {
+        let certainty = id.identifiability.params.iter().find(|c| c.id == p)?;
+        Some(Estimate {
+            value: id.params.get(p),
+            std: certainty.std.unwrap_or(f32::NAN),
+        })
+    };
     let mut params = [0.0f32; 5];
     let mut std = [f32::NAN; 5];
     for (k, p) in ParamId::MOTOR.iter().enumerate() {
         params[k] = id.params.get(*p);
-        if let Some(c) = id.identifiability.params.iter().find(|c| c.id == *p) {
-            std[k] = c.std.unwrap_or(f32::NAN);
+        if let Some(e) = estimate(*p) {
+            std[k] = e.std;
         }
     }
-    let friction = id
-        .identifiability
-        .params
-        .iter()
-        .find(|c| c.id == ParamId::Tc)
-        .map(|c| Estimate {
-            value: id.params.get(ParamId::Tc),
-            std: c.std.unwrap_or(f32::NAN),
-        });
     MotorReport {
         params,
         std,
-        friction,
+        friction: estimate(ParamId::Tc),
         rmse_omega: id.cost.rmse_omega,
         evaluations: id.evaluations,
         rank: id.identifiability.rank as u8,
@@ -468,20 +475,14 @@ impl<'s, const N: usize> Service<'s, N> {
         for k in 0..N {
             hw.watchdog.feed();
             let input = commissioning_input(k, N, dt, self.limits.voltage);
-            let sample = match input {
-                Bridge::Drive(v) => hw.drive.step(v),
-                Bridge::Open => hw.drive.coast(),
-            };
+            let sample = hw.drive.apply(input);
             let within = sample.current.abs() <= self.limits.current
                 && sample.omega.abs() <= self.limits.speed;
             if !within {
                 hw.drive.stop();
                 return fail(JobEnd::Refused(Refusal::Trip), &mut hw.link);
             }
-            s.v[k] = match input {
-                Bridge::Drive(v) => v,
-                Bridge::Open => 0.0,
-            };
+            s.v[k] = input.recorded_volts();
             s.omega[k] = sample.omega;
             s.current[k] = sample.current;
             s.len = k + 1;
@@ -515,6 +516,17 @@ pub enum Bridge {
     Drive(f32),
     /// Every switch off: the motor coasts.
     Open,
+}
+
+impl Bridge {
+    /// The voltage column of the record: the applied voltage, 0 where the bridge is open
+    /// (not applied; the record's `coast_from` says so).
+    pub fn recorded_volts(self) -> f32 {
+        match self {
+            Bridge::Drive(volts) => volts,
+            Bridge::Open => 0.0,
+        }
+    }
 }
 
 /// First sample of the coast-down in a commissioning record of `n` samples: the last
@@ -558,7 +570,7 @@ pub fn commissioning_spec() -> ProblemSpec {
 mod tests {
     use super::*;
     use crate::params::ModelParams;
-    use crate::plant::SimulatedPlant;
+    use crate::plant::{SimulatedPlant, DEMO_FRICTION};
     use std::collections::VecDeque;
 
     /// A link whose incoming requests are queued, each released after `after` polls.
@@ -625,10 +637,6 @@ mod tests {
         }
     }
 
-    /// Coulomb friction of the test plant [N m]: a fifth of the viscous torque at the
-    /// speed of the last voltage step.
-    const PLANT_TC: f32 = 0.05;
-
     /// The seed's motor with Coulomb friction `tc`, sampled at 100 Hz with sensor noise.
     fn plant_with_friction(tc: f32) -> SimulatedPlant {
         let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
@@ -636,7 +644,7 @@ mod tests {
     }
 
     fn seed_plant() -> SimulatedPlant {
-        plant_with_friction(PLANT_TC)
+        plant_with_friction(DEMO_FRICTION)
     }
 
     fn progress_count(sent: &[BoardMessage]) -> u32 {
@@ -659,10 +667,10 @@ mod tests {
         }
         let friction = report.friction.expect("commissioning identifies friction");
         assert!(
-            (friction.value / PLANT_TC - 1.0).abs() < 0.03,
+            (friction.value / DEMO_FRICTION - 1.0).abs() < 0.03,
             "tc {friction:?}"
         );
-        assert!(friction.std < 0.1 * PLANT_TC, "tc {friction:?}");
+        assert!(friction.std < 0.1 * DEMO_FRICTION, "tc {friction:?}");
         assert_eq!(report.rank, 6, "speed, current and coast-down pin all six");
         assert_eq!(hw.params.0, Some(report));
         assert_eq!(hw.drive.stopped, 1, "drive removed after the experiment");
@@ -712,18 +720,12 @@ mod tests {
         assert!(inputs[coast..].iter().all(|b| *b == Bridge::Open));
         // Run it on a noise-free plant: in the coast-down no current flows and the speed
         // follows seed Eq. 4 with i = 0, w(t) = (w0 + tc/B) e^(-B t / J) - tc/B.
-        let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, PLANT_TC);
+        let p = crate::plant::demo_motor();
         let mut plant = SimulatedPlant::new(&p, dt, 0.0, 0.0, 1).unwrap();
-        let samples: Vec<Sample> = inputs
-            .iter()
-            .map(|b| match b {
-                Bridge::Drive(v) => plant.step(*v),
-                Bridge::Open => plant.coast(),
-            })
-            .collect();
+        let samples: Vec<Sample> = inputs.iter().map(|b| plant.apply(*b)).collect();
         let w0 = samples[coast].omega;
         assert!(w0 > 50.0, "turning when the bridge opens: {w0}");
-        let (j, b, tc) = (0.0424f32, 0.00267f32, PLANT_TC);
+        let (j, b, tc) = (0.0424f32, 0.00267f32, DEMO_FRICTION);
         for (m, s) in samples[coast + 1..].iter().enumerate() {
             let t = (m + 1) as f32 * dt;
             let want = (w0 + tc / b) * (-b * t / j).exp() - tc / b;
@@ -734,6 +736,42 @@ mod tests {
             );
             assert_eq!(s.current, 0.0);
         }
+    }
+
+    #[test]
+    fn a_noise_free_commissioning_record_is_the_models_own_simulation_bit_for_bit() {
+        // The plant and the fit open the bridge at the same sample: the true parameters
+        // reproduce every reading exactly, so a coast-down one step early or late would show.
+        let (n, truth) = (SAMPLES, crate::plant::demo_motor());
+        let data = crate::testkit::Owned::commissioning(&truth, n, 0.01, LIMITS.voltage);
+        let record = data.record(true, false);
+        assert_eq!(record.coast_from, Some(coast_start(n)));
+        let (w, i) = (&data.omega, &data.current);
+        let (mut sim_w, mut sim_i) = (vec![0.0f32; n], vec![0.0f32; n]);
+        crate::sim::simulate(
+            &truth,
+            &record,
+            crate::sim::InitialState::REST,
+            false,
+            &mut sim_w,
+            &mut sim_i,
+        )
+        .unwrap();
+        assert_eq!(&sim_w, w);
+        assert_eq!(&sim_i, i);
+        let cost = crate::objective::Objective::new(&[record])
+            .unwrap()
+            .cost(&truth)
+            .unwrap();
+        assert_eq!(cost.sse, 0.0);
+        // The same record read as if the bridge had opened one sample later does not fit.
+        let late = Record {
+            coast_from: Some(coast_start(n) + 1),
+            ..record
+        };
+        let late = [late];
+        let objective = crate::objective::Objective::new(&late).unwrap();
+        assert!(objective.cost(&truth).unwrap().sse > 0.0);
     }
 
     #[test]

@@ -88,8 +88,14 @@ mod tests {
 
     #[test]
     fn round_trip_is_exact() {
-        let bytes = encode(&report());
-        assert!(same(&decode(&bytes).expect("valid record"), &report()));
+        let without_friction = MotorReport {
+            friction: None,
+            ..report()
+        };
+        for r in [report(), without_friction] {
+            let bytes = encode(&r);
+            assert!(same(&decode(&bytes).expect("valid record"), &r));
+        }
     }
 
     #[test]

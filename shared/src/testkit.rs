@@ -1,8 +1,10 @@
 //! Test support: synthetic records owned in vectors.
 
 use crate::params::ModelParams;
+use crate::plant::SimulatedPlant;
 use crate::profile::{Experiment, Profile};
 use crate::record::Record;
+use crate::service::{coast_start, commissioning_input, Drive};
 use crate::synth::{synthesize, Buffers, Noise};
 use std::vec::Vec;
 
@@ -12,6 +14,7 @@ pub struct Owned {
     pub tl: Vec<f32>,
     pub omega: Vec<f32>,
     pub current: Vec<f32>,
+    pub coast_from: Option<usize>,
 }
 
 impl Owned {
@@ -26,6 +29,18 @@ impl Owned {
         Owned::new(&ModelParams::SEED_MOTOR, exp, dt, n, noise, seed)
     }
 
+    /// `n` samples of `dt`, all zero, no coast-down.
+    fn zeros(dt: f32, n: usize) -> Owned {
+        Owned {
+            dt,
+            v: vec![0.0; n],
+            tl: vec![0.0; n],
+            omega: vec![0.0; n],
+            current: vec![0.0; n],
+            coast_from: None,
+        }
+    }
+
     pub fn new(
         p: &ModelParams,
         exp: Experiment,
@@ -34,13 +49,7 @@ impl Owned {
         noise: Noise,
         seed: u64,
     ) -> Owned {
-        let mut o = Owned {
-            dt,
-            v: vec![0.0; n],
-            tl: vec![0.0; n],
-            omega: vec![0.0; n],
-            current: vec![0.0; n],
-        };
+        let mut o = Owned::zeros(dt, n);
         let buffers = Buffers {
             v: &mut o.v,
             tl: &mut o.tl,
@@ -57,7 +66,24 @@ impl Owned {
             omega: &self.omega,
             current: with_current.then_some(&self.current[..]),
             load: with_load.then_some(&self.tl[..]),
-            coast_from: None,
+            coast_from: self.coast_from,
         }
+    }
+
+    /// The commissioning experiment of [`crate::service`] (`n` samples of `dt` within
+    /// `voltage`, ending with a coast-down) run on a noise-free [`SimulatedPlant`] of `p`,
+    /// recorded as the board records it.
+    pub fn commissioning(p: &ModelParams, n: usize, dt: f32, voltage: f32) -> Owned {
+        let mut plant = SimulatedPlant::new(p, dt, 0.0, 0.0, 1).unwrap();
+        let mut o = Owned {
+            coast_from: Some(coast_start(n)),
+            ..Owned::zeros(dt, n)
+        };
+        for k in 0..n {
+            let input = commissioning_input(k, n, dt, voltage);
+            let s = plant.apply(input);
+            (o.v[k], o.omega[k], o.current[k]) = (input.recorded_volts(), s.omega, s.current);
+        }
+        o
     }
 }

@@ -2,6 +2,7 @@
 //! `motor-id board --port <pty> ...`, plus raw frames for abort and link faults.
 
 use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
+use motor_id_shared::plant::DEMO_FRICTION;
 use motor_id_shared::protocol::{
     BoardMessage, HostMessage, Pipeline, Refusal, CHUNK, PROTOCOL_VERSION,
 };
@@ -67,8 +68,8 @@ fn board_identify_is_bit_identical_to_host_identify() {
     run_ok(&["board", "--port", &q.pty, "hello"]);
 }
 
-/// The QEMU build's plant is the seed paper's motor with Coulomb friction 0.05 N m, which
-/// commissioning identifies from its coast-down.
+/// The QEMU build's plant is the seed paper's motor with Coulomb friction
+/// ([`DEMO_FRICTION`]), which commissioning identifies from its coast-down.
 fn assert_seed_motor(r: &serde_json::Value) {
     let truth = [
         ("ra", 3.412),
@@ -76,7 +77,7 @@ fn assert_seed_motor(r: &serde_json::Value) {
         ("j", 0.0424),
         ("b", 0.00267),
         ("kv", 0.1604),
-        ("tc", 0.05),
+        ("tc", DEMO_FRICTION as f64),
     ];
     for (name, t) in truth {
         let got = r["params"][name].as_f64().unwrap();

@@ -12,8 +12,7 @@ use crate::app::{State, StatusLed};
 use crate::flash_store::{FlashStore, ParamFlash};
 use crate::link::SerialLink;
 use defmt_semihosting as _;
-use motor_id_shared::params::{ModelParams, ParamId};
-use motor_id_shared::plant::SimulatedPlant;
+use motor_id_shared::plant::{demo_motor, SimulatedPlant};
 use motor_id_shared::service::{Hardware, NoWatchdog};
 use motor_id_shared::stored::STORED_LEN;
 use panic_semihosting as _;
@@ -25,10 +24,6 @@ const DT: f32 = 0.01;
 const NOISE: (f32, f32) = (0.5, 0.02);
 /// Seed of the sensor noise.
 const NOISE_SEED: u64 = 7;
-/// Coulomb friction of the simulated motor [N m] (the seed's motor has none; a real one
-/// does, and the commissioning coast-down is there to find it): a fifth of the viscous
-/// torque at the speed of the last voltage step.
-const PLANT_TC: f32 = 0.05;
 
 /// The parameter "sector" in RAM: erased at every start, as a new board's flash is.
 pub struct RamFlash([u8; STORED_LEN]);
@@ -70,8 +65,7 @@ pub fn init() -> (QemuHardware, LogLed) {
     let core = cortex_m::Peripherals::take().expect("init runs once");
     meter::start(core.SYST);
     let link = meter::MeteredLink::new(SerialLink::new(usart::Usart1::new()));
-    let motor = ModelParams::SEED_MOTOR.with(ParamId::Tc, PLANT_TC);
-    let drive = SimulatedPlant::new(&motor, DT, NOISE.0, NOISE.1, NOISE_SEED)
+    let drive = SimulatedPlant::new(&demo_motor(), DT, NOISE.0, NOISE.1, NOISE_SEED)
         .expect("the seed motor simulates");
     let hw = Hardware {
         link,
