@@ -139,16 +139,19 @@ pub fn equation_error(records: &[Record], with_friction: bool) -> Option<ModelPa
         let dt = r.dt as f64;
         let (mut ii, mut iw, mut it, mut is) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         let stride = row_stride(r.len());
-        let driven = r.coast_from.unwrap_or(r.len());
+        let driven = r.driven_len();
         for k in 1..r.len() {
             // No current flows over a step of the coast-down (the reading at its first
-            // sample is the current when the bridge opened).
-            if k - 1 < driven {
+            // sample is the current when the bridge opened): only steps before it count.
+            if k < driven {
                 ii += 0.5 * (c[k - 1] + c[k]) as f64 * dt;
             }
             iw += 0.5 * (r.omega[k - 1] + r.omega[k]) as f64 * dt;
             it += r.load_at(k - 1) as f64 * dt;
-            is += 0.5 * (sign(r.omega[k - 1]) + sign(r.omega[k])) as f64 * dt;
+            // Only when it is regressed (f64 runs in software on the board).
+            if with_friction {
+                is += 0.5 * (sign(r.omega[k - 1]) + sign(r.omega[k])) as f64 * dt;
+            }
             if k % stride == 0 {
                 let row = [(r.omega[k] - r.omega[0]) as f64, iw, is];
                 mechanical.add(&row, kv * ii - it);

@@ -189,9 +189,8 @@ impl Simulator {
         );
         let ripple_amp = p.get(ParamId::RippleAmp);
         let delayed = delay_whole != 0 || delay_frac != 0.0;
-        let others = kq == 0.0 && kar == 0.0 && vb == 0.0 && ripple_amp == 0.0;
-        let linear = tc == 0.0 && others;
-        let friction_only = others;
+        let friction_only = kq == 0.0 && kar == 0.0 && vb == 0.0 && ripple_amp == 0.0;
+        let linear = tc == 0.0 && friction_only;
         let mut s = Simulator {
             disc,
             dt,
