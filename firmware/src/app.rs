@@ -1,9 +1,9 @@
 //! The application both builds run: power-up (commission when no valid parameters are
 //! stored, otherwise straight into service), then the service loop answering the host. Its
-//! logic is `motor_id_shared::service`; this module adds the record buffer, the limits, the
+//! logic is `motor_id_shared::device::service`; this module adds the record buffer, the limits, the
 //! status LED and the log lines.
 
-use motor_id_shared::service::{
+use motor_id_shared::device::service::{
     Boot, Drive, Hardware, JobEnd, Limits, Link, ParamStore, RecordStore, Service, Watchdog,
 };
 

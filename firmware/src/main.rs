@@ -1,5 +1,5 @@
 //! motor-id drive-board firmware. One application ([`app`], on top of
-//! `motor_id_shared::service`) in two builds that differ only in their board layer:
+//! `motor_id_shared::device::service`) in two builds that differ only in their board layer:
 //!
 //! - `board` (default): the STM32F405 drive board ([`board`]): PWM to the H-bridge,
 //!   timer-triggered ADC sampling of tacho and current by DMA, USART1 link, independent
@@ -30,8 +30,8 @@ mod qemu;
 fn main() -> ! {
     // The record buffers, initialised at link time (.bss): `entry` turns this into a
     // `&'static mut` (a run-time initialiser would build its 24 KB on the stack first).
-    static mut STORE: motor_id_shared::service::RecordStore<{ app::MAX_SAMPLES }> =
-        motor_id_shared::service::RecordStore::new();
+    static mut STORE: motor_id_shared::device::service::RecordStore<{ app::MAX_SAMPLES }> =
+        motor_id_shared::device::service::RecordStore::new();
     let (hw, led) = init();
     app::run(hw, STORE, led)
 }

@@ -1,5 +1,5 @@
 //! `motor-id board --port PORT <hello | identify F.csv | commission | params | clear>`: drive a
-//! board (or its QEMU build) over a serial port with the frames of `motor_id_shared::frame`.
+//! board (or its QEMU build) over a serial port with the frames of `motor_id_shared::wire::frame`.
 
 use crate::csvio::OwnedRecord;
 use crate::identify_cmd::{write_json, PipelineArg};
@@ -7,10 +7,10 @@ use crate::progress::FitProgress;
 use crate::report::num;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
-use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
-use motor_id_shared::identify::{Progress, Stage};
-use motor_id_shared::params::ParamId;
-use motor_id_shared::protocol::{
+use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
+use motor_id_shared::fit::identify::{Progress, Stage};
+use motor_id_shared::model::params::ParamId;
+use motor_id_shared::wire::protocol::{
     BoardMessage, HostMessage, JobStage, MotorReport, Refusal, CHUNK, PROTOCOL_VERSION,
 };
 use serde_json::{json, Map, Value};

@@ -3,7 +3,7 @@
 //! oscilloscope import of the seed's workflow (tacho volts to rad/s).
 
 use anyhow::{anyhow, bail, Context, Result};
-use motor_id_shared::record::MIN_SAMPLES;
+use motor_id_shared::model::record::MIN_SAMPLES;
 use motor_id_shared::Record;
 use std::path::{Path, PathBuf};
 

@@ -9,9 +9,9 @@ use crate::simulate_cmd::{simulate, SimulateArgs};
 use crate::spec::problem;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use motor_id_shared::identify::{identify_from, Identification, IdentifyConfig, Pipeline};
-use motor_id_shared::objective::Objective;
-use motor_id_shared::space::ProblemSpec;
+use motor_id_shared::fit::identify::{identify_from, Identification, IdentifyConfig, Pipeline};
+use motor_id_shared::fit::objective::Objective;
+use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::{ModelParams, Record};
 use plotters::style::{RGBColor, BLUE, RED};
 use std::ops::ControlFlow;
@@ -42,7 +42,7 @@ pub struct IdentifyArgs {
     pub plot: Option<PathBuf>,
 }
 
-/// The pipelines by name (`motor_id_shared::identify::Pipeline`).
+/// The pipelines by name (`motor_id_shared::fit::identify::Pipeline`).
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PipelineArg {
     /// Equation-error start, short FFO, least squares.

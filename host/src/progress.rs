@@ -1,7 +1,7 @@
 //! Progress bar on stderr for long fits (hidden when stderr is not a terminal or with --quiet).
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use motor_id_shared::identify::{Progress, Stage};
+use motor_id_shared::fit::identify::{Progress, Stage};
 
 /// A progress bar fed by the identification's progress callback.
 pub struct FitProgress {

@@ -1,9 +1,9 @@
 //! The `identify` report: JSON (DESIGN.md contract: `params`, `rmse_omega`, `evaluations`,
 //! `identifiability`, plus more fields) and the text summary printed on stdout.
 
-use motor_id_shared::identifiability::Identifiability;
-use motor_id_shared::identify::Identification;
-use motor_id_shared::space::ProblemSpec;
+use motor_id_shared::fit::identifiability::Identifiability;
+use motor_id_shared::fit::identify::Identification;
+use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::ParamId;
 use serde_json::{json, Map, Value};
 

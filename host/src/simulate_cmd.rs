@@ -4,8 +4,8 @@ use crate::csvio::OwnedRecord;
 use crate::spec::{apply_effect, parse_motor};
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
-use motor_id_shared::profile::{default_load_torque, settling_duration, Experiment, Profile};
-use motor_id_shared::synth::{synthesize, Buffers, Noise};
+use motor_id_shared::model::profile::{default_load_torque, settling_duration, Experiment, Profile};
+use motor_id_shared::model::synth::{synthesize, Buffers, Noise};
 use motor_id_shared::ModelParams;
 use std::path::PathBuf;
 
@@ -103,7 +103,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
         None => (settling_duration(&p, profile) as f64).clamp(0.05, 120.0),
     };
     let n = (duration * a.rate).round() as usize;
-    if n < motor_id_shared::record::MIN_SAMPLES {
+    if n < motor_id_shared::model::record::MIN_SAMPLES {
         bail!("{duration} s at {} Hz gives only {n} samples", a.rate);
     }
     if n > MAX_SAMPLES {

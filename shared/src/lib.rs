@@ -11,31 +11,15 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod capacity;
-pub mod discretise;
-pub mod effects;
+pub mod device;
 pub mod error;
-pub mod ffo;
-pub mod frame;
-pub mod identifiability;
-pub mod identify;
-pub mod initial;
-pub mod linalg;
-pub mod objective;
-pub mod params;
-pub mod plant;
-pub mod profile;
-pub mod protocol;
-pub mod record;
-pub mod refine;
+pub mod fit;
+pub mod model;
 pub mod rng;
-pub mod service;
-pub mod sim;
-pub mod space;
-pub mod stored;
-pub mod synth;
 #[cfg(test)]
 pub(crate) mod testkit;
+pub mod wire;
 
 pub use error::Error;
-pub use params::{ModelParams, ParamId};
-pub use record::Record;
+pub use model::params::{ModelParams, ParamId};
+pub use model::record::Record;

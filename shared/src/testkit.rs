@@ -1,11 +1,11 @@
 //! Test support: synthetic records owned in vectors.
 
-use crate::params::ModelParams;
-use crate::plant::SimulatedPlant;
-use crate::profile::{Experiment, Profile};
-use crate::record::Record;
-use crate::service::{coast_start, commissioning_input, Drive};
-use crate::synth::{synthesize, Buffers, Noise};
+use crate::model::params::ModelParams;
+use crate::device::plant::SimulatedPlant;
+use crate::model::profile::{Experiment, Profile};
+use crate::model::record::Record;
+use crate::device::service::{coast_start, commissioning_input, Drive};
+use crate::model::synth::{synthesize, Buffers, Noise};
 use std::vec::Vec;
 
 pub struct Owned {
@@ -70,7 +70,7 @@ impl Owned {
         }
     }
 
-    /// The commissioning experiment of [`crate::service`] (`n` samples of `dt` within
+    /// The commissioning experiment of [`crate::device::service`] (`n` samples of `dt` within
     /// `voltage`, ending with a coast-down) run on a noise-free [`SimulatedPlant`] of `p`,
     /// recorded as the board records it.
     pub fn commissioning(p: &ModelParams, n: usize, dt: f32, voltage: f32) -> Owned {

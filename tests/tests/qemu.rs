@@ -1,9 +1,9 @@
 //! The firmware in QEMU (netduinoplus2), driven through the host exactly as a board:
 //! `motor-id board --port <pty> ...`, plus raw frames for abort and link faults.
 
-use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
-use motor_id_shared::plant::DEMO_FRICTION;
-use motor_id_shared::protocol::{
+use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
+use motor_id_shared::device::plant::DEMO_FRICTION;
+use motor_id_shared::wire::protocol::{
     BoardMessage, HostMessage, Pipeline, Refusal, CHUNK, PROTOCOL_VERSION,
 };
 use motor_id_tests::{board_record, json, run, run_err, run_ok, s, Qemu};

@@ -1,14 +1,14 @@
-//! Local refinement: Levenberg-Marquardt on the weighted residuals of [`crate::objective`],
-//! in the unit coordinates of [`crate::space`], with steps projected onto the bounds.
+//! Local refinement: Levenberg-Marquardt on the weighted residuals of [`crate::fit::objective`],
+//! in the unit coordinates of [`crate::fit::space`], with steps projected onto the bounds.
 //!
 //! The seed stops at the FFO result; least squares from a good start reaches the noise
 //! floor in tens of evaluations. Marquardt scaling (`diag(J^T J)`) plus a tiny multiple of
 //! the identity keeps the step defined along directions the data does not pin (speed-only
-//! records, see [`crate::identifiability`]): they are simply left where the search put them.
+//! records, see [`crate::fit::identifiability`]): they are simply left where the search put them.
 
-use crate::linalg::{cholesky_solve, Vector};
-use crate::objective::{Cost, Objective};
-use crate::space::{Space, MAX_FREE};
+use crate::fit::linalg::{cholesky_solve, Vector};
+use crate::fit::objective::{Cost, Objective};
+use crate::fit::space::{Space, MAX_FREE};
 use core::ops::ControlFlow;
 
 /// Levenberg-Marquardt settings.
@@ -158,7 +158,7 @@ fn lm_step(
     objective: &Objective,
     space: &Space,
     u: &mut [f32; MAX_FREE],
-    ne: &mut crate::objective::NormalEquations,
+    ne: &mut crate::fit::objective::NormalEquations,
     lambda: &mut f64,
     cfg: &LmConfig,
     central: bool,
@@ -222,7 +222,7 @@ fn lm_step(
 /// own: its matrices are not on the stack while the normal equations are built.)
 #[inline(never)]
 fn projected_step(
-    ne: &crate::objective::NormalEquations,
+    ne: &crate::fit::objective::NormalEquations,
     u: &[f32; MAX_FREE],
     lambda: f64,
     max_diag: f64,

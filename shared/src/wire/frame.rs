@@ -1,4 +1,4 @@
-//! Framing of [`crate::protocol`] messages on a byte stream: postcard payload, CRC-32
+//! Framing of [`crate::wire::protocol`] messages on a byte stream: postcard payload, CRC-32
 //! (ISO-HDLC) appended, COBS-encoded, terminated by a zero byte. The decoder resynchronises
 //! at every zero byte, so garbage, a dropped byte or a corrupted frame costs that frame only;
 //! bad CRCs and oversize frames are reported, never a panic.
@@ -119,7 +119,7 @@ impl Decoder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::*;
+    use crate::wire::protocol::*;
     use proptest::prelude::*;
     use std::vec::Vec;
 
@@ -136,7 +136,7 @@ mod tests {
             },
             HostMessage::Identify {
                 seed: 7,
-                pipeline: crate::identify::Pipeline::Board,
+                pipeline: crate::fit::identify::Pipeline::Board,
             },
             HostMessage::RecordChunk {
                 offset: 16,

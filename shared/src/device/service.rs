@@ -1,20 +1,20 @@
 //! The drive board's application, independent of any register: at power-up it commissions a
 //! motor it has no valid parameters for (safety checks, bounded experiment, identification,
 //! store) or goes straight into service; in service it answers the host's
-//! [`crate::protocol`] requests over a [`Link`], identifies from a record the host streams in,
+//! [`crate::wire::protocol`] requests over a [`Link`], identifies from a record the host streams in,
 //! and commissions again on request. The board and QEMU builds implement the traits
 //! ([`Link`], [`Drive`], [`ParamStore`], [`Watchdog`]); the tests below drive it with the
-//! simulated plant of [`crate::plant`].
+//! simulated plant of [`crate::device::plant`].
 
-use crate::identify::{identify, IdentifyConfig, Progress, Stage};
-use crate::params::ParamId;
-use crate::profile::{Experiment, Profile};
-use crate::protocol::Estimate;
-use crate::protocol::{
+use crate::fit::identify::{identify, IdentifyConfig, Progress, Stage};
+use crate::model::params::ParamId;
+use crate::model::profile::{Experiment, Profile};
+use crate::wire::protocol::Estimate;
+use crate::wire::protocol::{
     BoardMessage, HostMessage, JobStage, MotorReport, Refusal, PROTOCOL_VERSION,
 };
-use crate::record::Record;
-use crate::space::ProblemSpec;
+use crate::model::record::Record;
+use crate::fit::space::ProblemSpec;
 use core::ops::ControlFlow;
 
 /// The byte link to the host, message by message.
@@ -185,7 +185,7 @@ pub struct Service<'s, const N: usize> {
 }
 
 /// Report of an identification in the message form.
-pub fn motor_report(id: &crate::identify::Identification) -> MotorReport {
+pub fn motor_report(id: &crate::fit::identify::Identification) -> MotorReport {
     // A free parameter's value and standard deviation (NaN when not pinned); `None` for a
     // parameter that was not identified.
     let estimate = |p: ParamId| {
@@ -569,8 +569,8 @@ pub fn commissioning_spec() -> ProblemSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ModelParams;
-    use crate::plant::{SimulatedPlant, DEMO_FRICTION};
+    use crate::model::params::ModelParams;
+    use crate::device::plant::{SimulatedPlant, DEMO_FRICTION};
     use std::collections::VecDeque;
 
     /// A link whose incoming requests are queued, each released after `after` polls.
@@ -720,7 +720,7 @@ mod tests {
         assert!(inputs[coast..].iter().all(|b| *b == Bridge::Open));
         // Run it on a noise-free plant: in the coast-down no current flows and the speed
         // follows seed Eq. 4 with i = 0, w(t) = (w0 + tc/B) e^(-B t / J) - tc/B.
-        let p = crate::plant::demo_motor();
+        let p = crate::device::plant::demo_motor();
         let mut plant = SimulatedPlant::new(&p, dt, 0.0, 0.0, 1).unwrap();
         let samples: Vec<Sample> = inputs.iter().map(|b| plant.apply(*b)).collect();
         let w0 = samples[coast].omega;
@@ -742,16 +742,16 @@ mod tests {
     fn a_noise_free_commissioning_record_is_the_models_own_simulation_bit_for_bit() {
         // The plant and the fit open the bridge at the same sample: the true parameters
         // reproduce every reading exactly, so a coast-down one step early or late would show.
-        let (n, truth) = (SAMPLES, crate::plant::demo_motor());
+        let (n, truth) = (SAMPLES, crate::device::plant::demo_motor());
         let data = crate::testkit::Owned::commissioning(&truth, n, 0.01, LIMITS.voltage);
         let record = data.record(true, false);
         assert_eq!(record.coast_from, Some(coast_start(n)));
         let (w, i) = (&data.omega, &data.current);
         let (mut sim_w, mut sim_i) = (vec![0.0f32; n], vec![0.0f32; n]);
-        crate::sim::simulate(
+        crate::model::sim::simulate(
             &truth,
             &record,
-            crate::sim::InitialState::REST,
+            crate::model::sim::InitialState::REST,
             false,
             &mut sim_w,
             &mut sim_i,
@@ -759,7 +759,7 @@ mod tests {
         .unwrap();
         assert_eq!(&sim_w, w);
         assert_eq!(&sim_i, i);
-        let cost = crate::objective::Objective::new(&[record])
+        let cost = crate::fit::objective::Objective::new(&[record])
             .unwrap()
             .cost(&truth)
             .unwrap();
@@ -770,7 +770,7 @@ mod tests {
             ..record
         };
         let late = [late];
-        let objective = crate::objective::Objective::new(&late).unwrap();
+        let objective = crate::fit::objective::Objective::new(&late).unwrap();
         assert!(objective.cost(&truth).unwrap().sse > 0.0);
     }
 

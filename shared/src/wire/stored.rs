@@ -3,7 +3,7 @@
 //! [`MotorReport`] and a CRC-32 over all of it. Erased flash (all `0xFF`), a record of another
 //! layout version or a torn write reads back as "nothing stored", never as wrong parameters.
 
-use crate::protocol::MotorReport;
+use crate::wire::protocol::MotorReport;
 
 /// First word of a stored record ("MIDP" little-endian).
 pub const MAGIC: u32 = u32::from_le_bytes(*b"MIDP");
@@ -59,7 +59,7 @@ pub fn decode(bytes: &[u8]) -> Option<MotorReport> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::Estimate;
+    use crate::wire::protocol::Estimate;
 
     fn report() -> MotorReport {
         MotorReport {

@@ -1,7 +1,7 @@
 //! Farmland Fertility Optimizer (Shayanfar and Gharehchopogh 2018, as used by the seed),
 //! in fixed memory and one iteration per call.
 //!
-//! The population lives in `[[f32; D]; N]` on the unit cube (see [`crate::space`]); `N` and
+//! The population lives in `[[f32; D]; N]` on the unit cube (see [`crate::fit::space`]); `N` and
 //! `D` are compile-time capacities, the configuration uses any `k * n <= N` and `dim <= D`.
 //!
 //! One iteration ([`Ffo::step`]):
@@ -29,7 +29,7 @@
 //! - The cost function is told the cost a candidate must beat (its parent's; `INFINITY` for
 //!   the initial population) and may stop as soon as it knows the candidate cannot, returning
 //!   any value not below it: the decision, and so the whole run, is the same, and a record
-//!   fit abandons most poor candidates part-way ([`crate::objective::Objective::fitness_below`]).
+//!   fit abandons most poor candidates part-way ([`crate::fit::objective::Objective::fitness_below`]).
 //! - Evaluations: `N` at start, then `N` per iteration (`2 N` with the soil step), so the
 //!   seed's settings spend `100 + 200 * 200 = 40,100`.
 

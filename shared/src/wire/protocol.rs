@@ -1,8 +1,8 @@
 //! Messages between the host and a drive board, defined once for both ends (postcard over
-//! the frames of [`crate::frame`]). A hello exchange carries [`PROTOCOL_VERSION`] so that a
+//! the frames of [`crate::wire::frame`]). A hello exchange carries [`PROTOCOL_VERSION`] so that a
 //! host and a firmware that disagree refuse politely instead of misreading each other.
 
-pub use crate::identify::Pipeline;
+pub use crate::fit::identify::Pipeline;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.

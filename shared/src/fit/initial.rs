@@ -10,18 +10,18 @@
 //! Speed only: seed Eq. 6 as a differential equation, `w'' + c2 w' + c3 w = c1 v` with
 //! `c1 = Kv/(La J)`, `c2 = Ra/La + B/J`, `c3 = (Ra B + Kv^2)/(La J)`, integrated twice is
 //! linear in `c1, c2, c3` and two constants of integration per record. Only these three
-//! combinations are pinned (see [`crate::identifiability`]), so the start is the point of the
+//! combinations are pinned (see [`crate::fit::identifiability`]), so the start is the point of the
 //! equal-fit set `{c1, c2, c3} = const` that best respects the bounds and fixed values.
 //!
 //! Integrating (rather than differentiating) keeps the noise of the readings from being
 //! amplified. The estimates are biased by noise on the regressors and by unmodelled effects,
 //! so they only seed the search; the output-error fit decides.
 
-use crate::linalg::{Mat, Vector};
-use crate::params::{ModelParams, ParamId};
-use crate::record::Record;
-use crate::sim::sign;
-use crate::space::{ProblemSpec, MAX_FREE};
+use crate::fit::linalg::{Mat, Vector};
+use crate::model::params::{ModelParams, ParamId};
+use crate::model::record::Record;
+use crate::model::sim::sign;
+use crate::fit::space::{ProblemSpec, MAX_FREE};
 
 /// A small least-squares problem (at most [`MAX_FREE`] unknowns) solved by a QR
 /// factorisation updated one row at a time with square-root-free Givens rotations
@@ -311,9 +311,9 @@ pub fn start(records: &[Record], spec: &ProblemSpec) -> Option<ModelParams> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamId;
-    use crate::profile::{Experiment, Profile};
-    use crate::synth::Noise;
+    use crate::model::params::ParamId;
+    use crate::model::profile::{Experiment, Profile};
+    use crate::model::synth::Noise;
     use crate::testkit::Owned;
 
     #[test]
@@ -359,7 +359,7 @@ mod tests {
 
     #[test]
     fn a_coast_down_record_gives_coulomb_friction_and_the_motor() {
-        let truth = crate::plant::demo_motor();
+        let truth = crate::device::plant::demo_motor();
         let data = Owned::commissioning(&truth, 2000, 0.01, 50.0);
         let record = data.record(true, false);
         let est = equation_error(&[record], true).unwrap();
@@ -404,7 +404,7 @@ mod tests {
             assert!((got / want - 1.0).abs() < 0.02, "{got} vs {want}");
         }
         let p = equal_fit_point((c1, c2, c3), &ProblemSpec::default()).unwrap();
-        let (a1, _) = crate::identifiability::Combination::KvOverLaJ.evaluate(&p);
+        let (a1, _) = crate::fit::identifiability::Combination::KvOverLaJ.evaluate(&p);
         assert!((a1 as f64 / c1 - 1.0).abs() < 1e-3);
     }
 

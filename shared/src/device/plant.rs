@@ -1,11 +1,11 @@
 //! A simulated motor behind the [`Drive`] trait that the board's PWM and ADC implement: the
 //! shared model (seed Eq. 1-5, with any effect of [`ModelParams`]) with white sensor noise.
-//! The QEMU build commissions it, and the host tests of [`crate::service`] drive it.
+//! The QEMU build commissions it, and the host tests of [`crate::device::service`] drive it.
 
-use crate::params::ModelParams;
+use crate::model::params::ModelParams;
 use crate::rng::{self, Rng};
-use crate::service::{Drive, Sample};
-use crate::sim::{InitialState, Simulator};
+use crate::device::service::{Drive, Sample};
+use crate::model::sim::{InitialState, Simulator};
 use crate::Error;
 
 /// Coulomb friction [N m] of the demonstration plant ([`demo_motor`]): a fifth of the
@@ -16,7 +16,7 @@ pub const DEMO_FRICTION: f32 = 0.05;
 /// (which has no Coulomb friction) with [`DEMO_FRICTION`], which a real motor has and the
 /// commissioning coast-down is there to find.
 pub fn demo_motor() -> ModelParams {
-    ModelParams::SEED_MOTOR.with(crate::params::ParamId::Tc, DEMO_FRICTION)
+    ModelParams::SEED_MOTOR.with(crate::model::params::ParamId::Tc, DEMO_FRICTION)
 }
 
 /// A simulated motor sampled every `dt`.

@@ -6,11 +6,11 @@
 //! accumulated per sample (fixed memory `O(dim^2)`, whatever the record length).
 
 use crate::error::Error;
-use crate::linalg::{Mat, Vector};
-use crate::params::ModelParams;
-use crate::record::{noise_sigma, Record};
-use crate::sim::{InitialState, Reading, Simulator};
-use crate::space::{Space, MAX_FREE};
+use crate::fit::linalg::{Mat, Vector};
+use crate::model::params::ModelParams;
+use crate::model::record::{noise_sigma, Record};
+use crate::model::sim::{InitialState, Reading, Simulator};
+use crate::fit::space::{Space, MAX_FREE};
 
 /// Samples summed in f32 before the partial sum is added to the f64 total.
 const BLOCK: usize = 64;
@@ -176,7 +176,7 @@ impl<'r, 'a> Objective<'r, 'a> {
             omega: init.omega + shift,
             ..init
         };
-        crate::sim::simulate(p, r, best, true, out_omega, out_current)
+        crate::model::sim::simulate(p, r, best, true, out_omega, out_current)
     }
 
     /// Residual sums of record `r` simulated with `p` (no Jacobian); `Err(())` once the
@@ -687,8 +687,8 @@ impl Accumulator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::profile::Profile;
-    use crate::synth::Noise;
+    use crate::model::profile::Profile;
+    use crate::model::synth::Noise;
     use crate::testkit::Owned;
 
     #[test]
@@ -710,7 +710,7 @@ mod tests {
         };
         for records in [&[at_rest][..], &[at_rest, turning][..], &[turning][..]] {
             let objective = Objective::new(records).unwrap();
-            let space = Space::new(&crate::space::ProblemSpec::default(), true).unwrap();
+            let space = Space::new(&crate::fit::space::ProblemSpec::default(), true).unwrap();
             let mut rng = crate::rng::seeded(5);
             let mut abandoned = 0;
             for _ in 0..40 {

@@ -1,6 +1,6 @@
 //! Fixed-step simulation of the motor (seed Eq. 1-5) with the optional effects.
 //!
-//! The linear part advances with the exact ZOH coefficients of [`crate::discretise`]. Each
+//! The linear part advances with the exact ZOH coefficients of [`crate::model::discretise`]. Each
 //! nonlinear effect enters as an extra voltage or load torque evaluated at the start of the
 //! step and held over it; Coulomb friction and brush drop are dead zones (stiction: the shaft
 //! stays at rest until the drive torque exceeds `tc`; no current flows until the driving
@@ -9,10 +9,10 @@
 //! The state is kept as a compensated (two-sum) f32 pair so that slow modes at high sample
 //! rates do not stall on f32 rounding.
 
-use crate::discretise::Discrete;
+use crate::model::discretise::Discrete;
 use crate::error::Error;
-use crate::params::{ModelParams, ParamId};
-use crate::record::Record;
+use crate::model::params::{ModelParams, ParamId};
+use crate::model::record::Record;
 
 pub use crate::capacity::MAX_DELAY_SAMPLES;
 const RING: usize = MAX_DELAY_SAMPLES + 2;
@@ -305,7 +305,7 @@ impl Simulator {
         self.omega.hi
     }
 
-    /// Open the bridge (a coast-down, see [`crate::record::Record::coast_from`]): from now on
+    /// Open the bridge (a coast-down, see [`crate::model::record::Record::coast_from`]): from now on
     /// no armature current flows and the voltage given to the steps is not applied; the
     /// shaft obeys seed Eq. 4 with `i = 0` (viscous and Coulomb friction, load). The current
     /// is taken to vanish at once: in a real bridge it decays through the freewheel diodes
@@ -333,7 +333,7 @@ impl Simulator {
         self.step(v, tl, None);
     }
 
-    /// Advance one step of a record with `input` (see [`crate::record::Record::step_input`]):
+    /// Advance one step of a record with `input` (see [`crate::model::record::Record::step_input`]):
     /// the bridge opens first if the coast-down starts here, and the rotor angle of the
     /// tacho ripple advances by the *measured* speed when it is given (the ripple follows the
     /// real rotor, whose angle a fit integrating its own, slightly wrong, speed would lose
@@ -484,7 +484,7 @@ impl Simulator {
 
 /// Simulate record `r`'s inputs (voltage, load, coast-down) from `init`:
 /// `out_omega[k]` and `out_current[k]` are the readings at sample `k`, before the input of
-/// sample `k` is applied (the convention of [`crate::record`]). With `track_angle`, the
+/// sample `k` is applied (the convention of [`crate::model::record`]). With `track_angle`, the
 /// ripple angle follows the record's measured speed (see [`Simulator::apply`]).
 pub fn simulate(
     p: &ModelParams,
@@ -512,7 +512,7 @@ pub fn simulate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::profile::{Experiment, Profile};
+    use crate::model::profile::{Experiment, Profile};
     use proptest::prelude::*;
     use std::vec;
     use std::vec::Vec;

@@ -2,10 +2,10 @@
 //! the readings. Serves `motor-id simulate`, the tests and the QEMU build's plant.
 
 use crate::error::Error;
-use crate::params::ModelParams;
-use crate::profile::Experiment;
+use crate::model::params::ModelParams;
+use crate::model::profile::Experiment;
 use crate::rng;
-use crate::sim::{InitialState, Simulator};
+use crate::model::sim::{InitialState, Simulator};
 
 /// Standard deviations of white measurement noise.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -7,7 +7,7 @@
 //! the Fisher information `F = J^T J / sigma^2` of the weighted residuals with respect to the
 //! natural coordinates (`ln p` for parameters with positive bounds, whatever the search
 //! scale; `p / max(|p|, 1 % of the range)` for effect parameters that may be 0, see
-//! [`crate::space::FreeParam::natural_per_unit`]) is eigen-decomposed; a direction is *pinned* when its standard deviation `1/sqrt(eig)` is at
+//! [`crate::fit::space::FreeParam::natural_per_unit`]) is eigen-decomposed; a direction is *pinned* when its standard deviation `1/sqrt(eig)` is at
 //! most [`PINNED_STD`] (10 % for a log coordinate) and its eigenvalue stands clear of the
 //! numerical floor of the finite-difference Jacobian (ten times the magnitude of the most
 //! negative eigenvalue, which exact arithmetic would make non-negative, and at least 1e-8 of
@@ -21,10 +21,10 @@
 //! optimistic, since the equal-fit set is curved.
 
 use crate::error::Error;
-use crate::linalg::symmetric_eigen;
-use crate::objective::{Cost, NormalEquations, Objective};
-use crate::params::{ModelParams, ParamId};
-use crate::space::{Space, MAX_FREE};
+use crate::fit::linalg::symmetric_eigen;
+use crate::fit::objective::{Cost, NormalEquations, Objective};
+use crate::model::params::{ModelParams, ParamId};
+use crate::fit::space::{Space, MAX_FREE};
 
 /// Largest standard deviation (in natural coordinates) of a pinned direction.
 pub const PINNED_STD: f64 = 0.1;

@@ -2,8 +2,8 @@
 //! from it: the initial state and a noise estimate.
 
 use crate::error::Error;
-use crate::params::{ModelParams, ParamId};
-use crate::sim::{sign, InitialState, StepInput};
+use crate::model::params::{ModelParams, ParamId};
+use crate::model::sim::{sign, InitialState, StepInput};
 
 /// Fewest samples a record may hold.
 pub const MIN_SAMPLES: usize = 8;
@@ -76,7 +76,7 @@ impl<'a> Record<'a> {
     }
 
     /// What drives the simulation over step `k`; with `track_angle`, the measured speed
-    /// over it (for the tacho ripple, see [`crate::sim::Simulator::apply`]).
+    /// over it (for the tacho ripple, see [`crate::model::sim::Simulator::apply`]).
     #[inline(always)]
     pub fn step_input(&self, k: usize, track_angle: bool) -> StepInput {
         StepInput {
@@ -88,7 +88,7 @@ impl<'a> Record<'a> {
     }
 
     /// Mean measured speed over step `k` (trapezoid of readings `k` and `k + 1`): the rate at
-    /// which the rotor angle advances, see [`crate::sim::Simulator::apply`].
+    /// which the rotor angle advances, see [`crate::model::sim::Simulator::apply`].
     pub fn angle_rate(&self, k: usize) -> f32 {
         trapezoid_rate(self.omega, k)
     }

@@ -2,7 +2,7 @@
 //! the unit cube the optimisers work in and physical parameter values.
 
 use crate::error::Error;
-use crate::params::{ModelParams, ParamId, PARAM_COUNT};
+use crate::model::params::{ModelParams, ParamId, PARAM_COUNT};
 
 pub use crate::capacity::MAX_FREE;
 

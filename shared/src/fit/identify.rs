@@ -2,14 +2,14 @@
 //! identifiability analysis (DESIGN.md data flow, steps 3-5).
 
 use crate::error::Error;
-use crate::ffo::{Ffo, FfoConfig};
-use crate::identifiability::{analyse, Identifiability};
-use crate::initial::start;
-use crate::objective::{Cost, Objective};
-use crate::params::ModelParams;
-use crate::record::Record;
-use crate::refine::{levenberg_marquardt, LmConfig};
-use crate::space::{ProblemSpec, Space, MAX_FREE};
+use crate::fit::ffo::{Ffo, FfoConfig};
+use crate::fit::identifiability::{analyse, Identifiability};
+use crate::fit::initial::start;
+use crate::fit::objective::{Cost, Objective};
+use crate::model::params::ModelParams;
+use crate::model::record::Record;
+use crate::fit::refine::{levenberg_marquardt, LmConfig};
+use crate::fit::space::{ProblemSpec, Space, MAX_FREE};
 use core::ops::ControlFlow;
 
 pub use crate::capacity::{MAX_POPULATION, MAX_RESTARTS, TRACE_CAPACITY};
@@ -70,7 +70,7 @@ pub struct IdentifyConfig {
     pub seed: u64,
     /// Extra refinements from the next best FFO members when the first stops above the noise.
     pub restarts: u32,
-    /// Seed the search with the equation-error estimate of [`crate::initial`].
+    /// Seed the search with the equation-error estimate of [`crate::fit::initial`].
     pub equation_error_start: bool,
     /// Refine the equation-error start first and skip the FFO when that already reaches
     /// the measured noise floor (saves most evaluations on a board; the noise floor is an
@@ -422,9 +422,9 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::ParamId;
-    use crate::profile::Profile;
-    use crate::synth::Noise;
+    use crate::model::params::ParamId;
+    use crate::model::profile::Profile;
+    use crate::model::synth::Noise;
     use crate::testkit::Owned;
 
     fn assert_within(p: &ModelParams, truth: &ModelParams, rel: f32) {

@@ -1,0 +1,9 @@
+//! The drive board's application, independent of any register: the hardware traits the
+//! board and QEMU builds implement, the service state machine that answers the host, the
+//! commissioning experiment, the conversion of a fit into the wire report, and a simulated
+//! plant behind the drive traits.
+//!
+//! Uses [`crate::fit`], [`crate::model`] and [`crate::wire`]; nothing below it uses it.
+
+pub mod plant;
+pub mod service;

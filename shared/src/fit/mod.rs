@@ -1,0 +1,15 @@
+//! The fit: the search space, the objective (seed Eq. 7), the equation-error start, the
+//! Farmland Fertility Optimizer (seed Eq. 8-16), the Levenberg-Marquardt refinement, the
+//! identifiability analysis and the pipelines that chain them.
+//!
+//! Owns the numbers of an identification. Uses [`crate::model`]; it may not use the wire
+//! format or the board application.
+
+pub mod ffo;
+pub mod identifiability;
+pub mod identify;
+pub mod initial;
+pub mod linalg;
+pub mod objective;
+pub mod refine;
+pub mod space;

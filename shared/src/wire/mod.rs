@@ -1,0 +1,10 @@
+//! The wire format between a host and a drive board, and the board's stored-parameter
+//! record: the messages, their framing (postcard, CRC-32, COBS) and the flash layout.
+//!
+//! An interface-control leaf: it depends on no algorithm and no model type (the pipeline
+//! names and parameter codes it carries are its own types), so both ends read it without
+//! pulling in the fit. See `docs/CONTRACTS.md` for every field and version.
+
+pub mod frame;
+pub mod protocol;
+pub mod stored;
