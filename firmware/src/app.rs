@@ -3,9 +3,11 @@
 //! logic is `motor_id_shared::device::service`; this module adds the record buffer, the limits, the
 //! status LED and the log lines.
 
-use motor_id_shared::device::service::{
-    Boot, Drive, Hardware, JobEnd, Limits, Link, ParamStore, RecordStore, Service, Watchdog,
-};
+use motor_id_shared::device::commissioning::Limits;
+use motor_id_shared::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
+use motor_id_shared::device::job::JobEnd;
+use motor_id_shared::device::record_store::RecordStore;
+use motor_id_shared::device::service::{Boot, Service};
 
 /// Longest record the board holds (2,000 samples of voltage, speed and current: 24 KB).
 pub const MAX_SAMPLES: usize = 2000;

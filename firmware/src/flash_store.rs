@@ -1,8 +1,8 @@
 //! Parameters in non-volatile memory: the record of `motor_id_shared::wire::stored` (magic,
 //! layout version, CRC) in one flash sector of the board, or in RAM for QEMU.
 
+use motor_id_shared::device::hardware::ParamStore;
 use motor_id_shared::wire::protocol::MotorReport;
-use motor_id_shared::device::service::ParamStore;
 use motor_id_shared::wire::stored::{self, STORED_LEN};
 
 /// The bytes of a parameter sector.

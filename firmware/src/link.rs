@@ -1,8 +1,8 @@
 //! The host link: frames of `motor_id_shared::wire::frame` over any byte-wise serial port.
 
+use motor_id_shared::device::hardware::Link;
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{BoardMessage, HostMessage};
-use motor_id_shared::device::service::Link;
 
 /// A serial port, byte by byte.
 pub trait ByteSerial {

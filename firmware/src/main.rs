@@ -30,8 +30,8 @@ mod qemu;
 fn main() -> ! {
     // The record buffers, initialised at link time (.bss): `entry` turns this into a
     // `&'static mut` (a run-time initialiser would build its 24 KB on the stack first).
-    static mut STORE: motor_id_shared::device::service::RecordStore<{ app::MAX_SAMPLES }> =
-        motor_id_shared::device::service::RecordStore::new();
+    static mut STORE: motor_id_shared::device::record_store::RecordStore<{ app::MAX_SAMPLES }> =
+        motor_id_shared::device::record_store::RecordStore::new();
     let (hw, led) = init();
     app::run(hw, STORE, led)
 }

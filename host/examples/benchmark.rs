@@ -12,11 +12,11 @@
 use motor_id_shared::fit::ffo::{FfoConfig, Soil};
 use motor_id_shared::fit::identify::{identify, IdentifyConfig};
 use motor_id_shared::fit::objective::Objective;
+use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::params::{ModelParams, ParamId};
 use motor_id_shared::model::profile::{settling_duration, Experiment, Profile};
-use motor_id_shared::rng;
-use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::synth::{synthesize, Buffers, Noise};
+use motor_id_shared::rng;
 use motor_id_shared::Record;
 use std::ops::ControlFlow;
 use std::time::Instant;

@@ -12,6 +12,7 @@ use clap::Args;
 use motor_id_shared::fit::identify::{identify_from, Identification, IdentifyConfig, Pipeline};
 use motor_id_shared::fit::objective::Objective;
 use motor_id_shared::fit::space::ProblemSpec;
+use motor_id_shared::wire::protocol::PipelineName;
 use motor_id_shared::{ModelParams, Record};
 use plotters::style::{RGBColor, BLUE, RED};
 use std::ops::ControlFlow;
@@ -51,6 +52,16 @@ pub enum PipelineArg {
     Board,
     /// The seed's FFO alone.
     Paper,
+}
+
+impl From<PipelineArg> for PipelineName {
+    fn from(p: PipelineArg) -> PipelineName {
+        match p {
+            PipelineArg::Default => PipelineName::Default,
+            PipelineArg::Board => PipelineName::Board,
+            PipelineArg::Paper => PipelineName::Paper,
+        }
+    }
 }
 
 impl From<PipelineArg> for Pipeline {

@@ -4,7 +4,9 @@ use crate::csvio::OwnedRecord;
 use crate::spec::{apply_effect, parse_motor};
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
-use motor_id_shared::model::profile::{default_load_torque, settling_duration, Experiment, Profile};
+use motor_id_shared::model::profile::{
+    default_load_torque, settling_duration, Experiment, Profile,
+};
 use motor_id_shared::model::synth::{synthesize, Buffers, Noise};
 use motor_id_shared::ModelParams;
 use std::path::PathBuf;

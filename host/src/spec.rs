@@ -2,8 +2,8 @@
 //! `--bounds ra=LO:HI,...` and `--fix ra=V,...`.
 
 use anyhow::{anyhow, bail, Context, Result};
-use motor_id_shared::model::effects::Effect;
 use motor_id_shared::fit::space::ProblemSpec;
+use motor_id_shared::model::effects::Effect;
 use motor_id_shared::{ModelParams, ParamId};
 
 /// Split `a=1,b=2` into pairs; empty items are refused.

@@ -1,5 +1,6 @@
 //! Typed, allocation-free errors of the identification core.
 
+use crate::model::param_id::ParamId;
 use core::fmt;
 
 /// Why a parameter set, a record or an identification request was refused.
@@ -8,9 +9,9 @@ use core::fmt;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error {
     /// A motor parameter is not a finite positive number.
-    NonPositiveParameter(crate::model::params::ParamId),
+    NonPositiveParameter(ParamId),
     /// An effect parameter is not finite or out of its physical range.
-    InvalidEffectParameter(crate::model::params::ParamId),
+    InvalidEffectParameter(ParamId),
     /// The sample step is not a finite positive number.
     InvalidStep,
     /// A record's columns have different lengths.
@@ -22,9 +23,9 @@ pub enum Error {
     /// No record was given.
     NoRecords,
     /// A bound has `lo >= hi`, or is not finite, or is not positive for a log-scaled parameter.
-    InvalidBound(crate::model::params::ParamId),
+    InvalidBound(ParamId),
     /// A fixed value lies outside the physically meaningful range.
-    InvalidFixedValue(crate::model::params::ParamId),
+    InvalidFixedValue(ParamId),
     /// Every parameter is fixed: there is nothing to identify.
     NothingToIdentify,
     /// More free parameters than the fixed-size solver holds.
@@ -68,7 +69,7 @@ impl fmt::Display for Error {
             Error::DelayTooLong => write!(
                 f,
                 "tacho delay td is longer than {} samples",
-                crate::model::sim::MAX_DELAY_SAMPLES
+                crate::capacity::MAX_DELAY_SAMPLES
             ),
             Error::CoastOutsideRecord => f.write_str("the coast-down must start within the record"),
         }

@@ -1,10 +1,11 @@
 //! Test support: synthetic records owned in vectors.
 
-use crate::model::params::ModelParams;
+use crate::device::commissioning::{coast_start, commissioning_input};
+use crate::device::hardware::Drive;
 use crate::device::plant::SimulatedPlant;
+use crate::model::params::ModelParams;
 use crate::model::profile::{Experiment, Profile};
 use crate::model::record::Record;
-use crate::device::service::{coast_start, commissioning_input, Drive};
 use crate::model::synth::{synthesize, Buffers, Noise};
 use std::vec::Vec;
 

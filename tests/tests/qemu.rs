@@ -1,10 +1,10 @@
 //! The firmware in QEMU (netduinoplus2), driven through the host exactly as a board:
 //! `motor-id board --port <pty> ...`, plus raw frames for abort and link faults.
 
-use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::device::plant::DEMO_FRICTION;
+use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
-    BoardMessage, HostMessage, Pipeline, Refusal, CHUNK, PROTOCOL_VERSION,
+    BoardMessage, HostMessage, PipelineName, Refusal, CHUNK, PROTOCOL_VERSION,
 };
 use motor_id_tests::{board_record, json, run, run_err, run_ok, s, Qemu};
 use std::io::{Read, Write};
@@ -221,7 +221,7 @@ fn abort_mid_identification_and_the_board_answers_again() {
     }
     raw.send(&HostMessage::Identify {
         seed: 1,
-        pipeline: Pipeline::Default,
+        pipeline: PipelineName::Default,
     });
     assert!(matches!(
         raw.receive(Duration::from_secs(10)),

@@ -3,7 +3,7 @@
 //! by DMA2 stream 0 into one of two buffers while the other is read. [`Drive::step`] waits
 //! for the next pair, so the experiment runs at the ADC's rate.
 
-use motor_id_shared::device::service::{Drive, Sample};
+use motor_id_shared::device::hardware::{Drive, Sample};
 use stm32f4xx_hal::adc::config::{
     AdcConfig, Dma, ExternalTrigger, SampleTime, Scan, Sequence, TriggerMode,
 };

@@ -20,7 +20,7 @@ use crate::app::{State, StatusLed};
 use crate::flash_store::FlashStore;
 use crate::link::{ByteSerial, SerialLink};
 use defmt_rtt as _;
-use motor_id_shared::device::service::{Hardware, Watchdog};
+use motor_id_shared::device::hardware::{Hardware, Watchdog};
 use panic_probe as _;
 use stm32f4xx_hal::gpio::{Output, Pin};
 use stm32f4xx_hal::pac;

@@ -14,8 +14,8 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::interrupt::{self, Mutex};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::exception;
+use motor_id_shared::device::hardware::{Drive, Link, Sample};
 use motor_id_shared::wire::protocol::{BoardMessage, HostMessage};
-use motor_id_shared::device::service::{Drive, Link, Sample};
 
 /// When the drive was last stopped [ticks] (the end of a commissioning experiment).
 static DRIVE_STOPPED: Mutex<Cell<u64>> = Mutex::new(Cell::new(0));

@@ -1,6 +1,6 @@
 //! The QEMU netduinoplus2 board layer: USART1 (no clock or pin set-up: QEMU needs none, and
 //! its RCC would make a HAL's clock set-up spin), the seed paper's motor simulated behind the
-//! [`Drive`](motor_id_shared::device::service::Drive) trait that the board's PWM and ADC implement
+//! [`Drive`](motor_id_shared::device::hardware::Drive) trait that the board's PWM and ADC implement
 //! (with Coulomb friction, which commissioning identifies),
 //! parameters in RAM (QEMU keeps no flash writes), no watchdog (QEMU has no IWDG), defmt
 //! over semihosting, and a meter of instructions and stack for the footprint report.
@@ -12,8 +12,8 @@ use crate::app::{State, StatusLed};
 use crate::flash_store::{FlashStore, ParamFlash};
 use crate::link::SerialLink;
 use defmt_semihosting as _;
+use motor_id_shared::device::hardware::{Hardware, NoWatchdog};
 use motor_id_shared::device::plant::{demo_motor, SimulatedPlant};
-use motor_id_shared::device::service::{Hardware, NoWatchdog};
 use motor_id_shared::wire::stored::STORED_LEN;
 use panic_semihosting as _;
 

@@ -5,5 +5,10 @@
 //!
 //! Uses [`crate::fit`], [`crate::model`] and [`crate::wire`]; nothing below it uses it.
 
+pub mod commissioning;
+pub mod hardware;
+pub mod job;
 pub mod plant;
+pub mod record_store;
+pub mod report;
 pub mod service;

@@ -2,10 +2,10 @@
 //! shared model (seed Eq. 1-5, with any effect of [`ModelParams`]) with white sensor noise.
 //! The QEMU build commissions it, and the host tests of [`crate::device::service`] drive it.
 
+use crate::device::hardware::{Drive, Sample};
 use crate::model::params::ModelParams;
-use crate::rng::{self, Rng};
-use crate::device::service::{Drive, Sample};
 use crate::model::sim::{InitialState, Simulator};
+use crate::rng::{self, Rng};
 use crate::Error;
 
 /// Coulomb friction [N m] of the demonstration plant ([`demo_motor`]): a fifth of the

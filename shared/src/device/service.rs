@@ -1,103 +1,25 @@
-//! The drive board's application, independent of any register: at power-up it commissions a
-//! motor it has no valid parameters for (safety checks, bounded experiment, identification,
-//! store) or goes straight into service; in service it answers the host's
-//! [`crate::wire::protocol`] requests over a [`Link`], identifies from a record the host streams in,
-//! and commissions again on request. The board and QEMU builds implement the traits
-//! ([`Link`], [`Drive`], [`ParamStore`], [`Watchdog`]); the tests below drive it with the
-//! simulated plant of [`crate::device::plant`].
+//! The drive board's application state machine, independent of any register: at power-up
+//! it commissions a motor it has no valid parameters for (safety checks, bounded experiment,
+//! identification, store) or goes straight into service; in service it answers the host's
+//! [`crate::wire::protocol`] requests over a [`Link`], identifies from a record the host
+//! streams in, and commissions again on request. The board and QEMU builds implement the
+//! traits of [`crate::device::hardware`]; the tests below drive it with the simulated plant
+//! of [`crate::device::plant`].
 
-use crate::fit::identify::{identify, IdentifyConfig, Progress, Stage};
-use crate::model::params::ParamId;
-use crate::model::profile::{Experiment, Profile};
-use crate::wire::protocol::Estimate;
-use crate::wire::protocol::{
-    BoardMessage, HostMessage, JobStage, MotorReport, Refusal, PROTOCOL_VERSION,
-};
-use crate::model::record::Record;
+use crate::device::commissioning::{commissioning_spec, run_experiment, safety_checks, Limits};
+use crate::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
+use crate::device::job::{abort_requested, fail, JobEnd};
+use crate::device::record_store::RecordStore;
+use crate::device::report::motor_report;
+use crate::fit::identify::{identify, IdentifyConfig, Pipeline, Progress, Stage};
 use crate::fit::space::ProblemSpec;
+use crate::wire::protocol::{
+    BoardMessage, HostMessage, JobStage, MotorReport, PipelineName, Refusal, PROTOCOL_VERSION,
+};
 use core::ops::ControlFlow;
-
-/// The byte link to the host, message by message.
-pub trait Link {
-    /// Send one message.
-    fn send(&mut self, msg: &BoardMessage);
-    /// A message if one has arrived (never blocks).
-    fn poll(&mut self) -> Option<HostMessage>;
-}
-
-/// One sample of the drive's sensors.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sample {
-    /// Tacho speed [rad/s].
-    pub omega: f32,
-    /// Armature current [A].
-    pub current: f32,
-}
-
-/// The power stage and its sensors, sampled at a fixed rate.
-pub trait Drive {
-    /// Sample period [s].
-    fn dt(&self) -> f32;
-    /// Wait for the next sample, return it, then apply `volts` until the one after.
-    fn step(&mut self, volts: f32) -> Sample;
-    /// Wait for the next sample, return it, then keep every bridge switch off until the one
-    /// after (open circuit: the motor coasts; the next [`Drive::step`] drives it again).
-    fn coast(&mut self) -> Sample;
-    /// [`Drive::step`] or [`Drive::coast`], as `bridge` says.
-    fn apply(&mut self, bridge: Bridge) -> Sample {
-        match bridge {
-            Bridge::Drive(volts) => self.step(volts),
-            Bridge::Open => self.coast(),
-        }
-    }
-    /// Remove drive (all bridge switches off: the motor coasts).
-    fn stop(&mut self);
-}
-
-/// Non-volatile storage of the identified motor.
-pub trait ParamStore {
-    /// The stored motor, if valid.
-    fn load(&mut self) -> Option<MotorReport>;
-    /// Store `report`.
-    fn save(&mut self, report: &MotorReport);
-    /// Erase.
-    fn clear(&mut self);
-}
-
-/// The independent watchdog: it stays on during experiments and identification, which feed
-/// it at every sample and every optimiser iteration.
-pub trait Watchdog {
-    /// Restart the watchdog's count-down.
-    fn feed(&mut self);
-}
-
-/// For builds without a watchdog (QEMU does not model the IWDG).
-pub struct NoWatchdog;
-
-impl Watchdog for NoWatchdog {
-    fn feed(&mut self) {}
-}
-
-/// The board as the application sees it: link, drive, parameter store, watchdog.
-pub struct Hardware<L, D, P, W> {
-    /// Link to the host.
-    pub link: L,
-    /// Power stage and sensors.
-    pub drive: D,
-    /// Non-volatile parameters.
-    pub params: P,
-    /// Independent watchdog.
-    pub watchdog: W,
-}
 
 /// Seed of the identification that power-up commissioning runs.
 pub const BOOT_SEED: u64 = 1;
-
-/// Samples read at 0 V before an experiment (safety checks).
-pub const SAFETY_SAMPLES: usize = 32;
-
-/// Samples the safety checks wait at 0 V for the motor to come to rest.
-pub const REST_WAIT_SAMPLES: usize = 2048;
 
 /// How power-up went.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -111,69 +33,12 @@ pub enum Boot {
     NotCommissioned(JobEnd),
 }
 
-/// Why a job ended without a result.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum JobEnd {
-    /// The host asked to abort.
-    Aborted,
-    /// A check failed; the reason as reported to the host.
-    Refused(Refusal),
-}
-
-/// Limits of the commissioning experiment.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Limits {
-    /// Largest armature voltage applied [V].
-    pub voltage: f32,
-    /// Trip above this |current| [A].
-    pub current: f32,
-    /// Trip above this |speed| [rad/s].
-    pub speed: f32,
-}
-
-/// Buffers of one record, in fixed memory.
-pub struct RecordStore<const N: usize> {
-    dt: f32,
-    len: usize,
-    expected: usize,
-    with_current: bool,
-    /// First sample of the coast-down (commissioning records only).
-    coast_from: Option<usize>,
-    v: [f32; N],
-    omega: [f32; N],
-    current: [f32; N],
-}
-
-impl<const N: usize> Default for RecordStore<N> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl<const N: usize> RecordStore<N> {
-    /// Empty buffers (const, for a `static`).
-    pub const fn new() -> Self {
-        RecordStore {
-            dt: 0.0,
-            len: 0,
-            expected: 0,
-            with_current: false,
-            coast_from: None,
-            v: [0.0; N],
-            omega: [0.0; N],
-            current: [0.0; N],
-        }
-    }
-
-    fn record(&self) -> Record<'_> {
-        Record {
-            dt: self.dt,
-            v: &self.v[..self.len],
-            omega: &self.omega[..self.len],
-            current: self.with_current.then(|| &self.current[..self.len]),
-            load: None,
-            coast_from: self.coast_from,
-        }
+/// The pipeline a host asks for by name.
+const fn pipeline_named(name: PipelineName) -> Pipeline {
+    match name {
+        PipelineName::Default => Pipeline::Default,
+        PipelineName::Board => Pipeline::Board,
+        PipelineName::Paper => Pipeline::Paper,
     }
 }
 
@@ -182,57 +47,6 @@ pub struct Service<'s, const N: usize> {
     store: &'s mut RecordStore<N>,
     session: bool,
     limits: Limits,
-}
-
-/// Report of an identification in the message form.
-pub fn motor_report(id: &crate::fit::identify::Identification) -> MotorReport {
-    // A free parameter's value and standard deviation (NaN when not pinned); `None` for a
-    // parameter that was not identified.
-    let estimate = |p: ParamId| {
-        let certainty = id.identifiability.params.iter().find(|c| c.id == p)?;
-        Some(Estimate {
-            value: id.params.get(p),
-            std: certainty.std.unwrap_or(f32::NAN),
-        })
-    };
-    let mut params = [0.0f32; 5];
-    let mut std = [f32::NAN; 5];
-    for (k, p) in ParamId::MOTOR.iter().enumerate() {
-        params[k] = id.params.get(*p);
-        if let Some(e) = estimate(*p) {
-            std[k] = e.std;
-        }
-    }
-    MotorReport {
-        params,
-        std,
-        friction: estimate(ParamId::Tc),
-        rmse_omega: id.cost.rmse_omega,
-        evaluations: id.evaluations,
-        rank: id.identifiability.rank as u8,
-    }
-}
-
-/// During a job: `true` when the host asked to abort; any other request is answered
-/// [`Refusal::Busy`].
-fn abort_requested(link: &mut impl Link) -> bool {
-    match link.poll() {
-        Some(HostMessage::Abort) => true,
-        Some(_) => {
-            link.send(&BoardMessage::Refused(Refusal::Busy));
-            false
-        }
-        None => false,
-    }
-}
-
-/// Report a job's end on the link and return it as the error.
-fn fail<T>(end: JobEnd, link: &mut impl Link) -> Result<T, JobEnd> {
-    link.send(&match end {
-        JobEnd::Aborted => BoardMessage::Aborted,
-        JobEnd::Refused(r) => BoardMessage::Refused(r),
-    });
-    Err(end)
 }
 
 impl<'s, const N: usize> Service<'s, N> {
@@ -354,7 +168,7 @@ impl<'s, const N: usize> Service<'s, N> {
                     return;
                 }
                 // The host's settings of the same name, so that the answer is bit-identical.
-                let cfg = pipeline.config(seed);
+                let cfg = pipeline_named(pipeline).config(seed);
                 // Failures have been reported on the link.
                 let _ = self.identify_and_report(&ProblemSpec::default(), &cfg, hw, false);
             }
@@ -420,37 +234,6 @@ impl<'s, const N: usize> Service<'s, N> {
         fail(end, &mut hw.link)
     }
 
-    /// Safety checks before any voltage is applied, at 0 V: the sensors read finite values;
-    /// the motor comes to rest (mean |speed| over [`SAFETY_SAMPLES`] under 2 % of the speed
-    /// limit) within [`REST_WAIT_SAMPLES`] (it may still be turning from a previous run);
-    /// then the current sensor shows no offset (mean |current| under 2 % of the limit).
-    fn safety_checks(
-        &self,
-        drive: &mut impl Drive,
-        watchdog: &mut impl Watchdog,
-    ) -> Result<(), Refusal> {
-        for _ in 0..REST_WAIT_SAMPLES / SAFETY_SAMPLES {
-            let (mut omega, mut current) = (0.0f32, 0.0f32);
-            for _ in 0..SAFETY_SAMPLES {
-                watchdog.feed();
-                let s = drive.step(0.0);
-                if !(s.omega.is_finite() && s.current.is_finite()) {
-                    return Err(Refusal::SensorFault);
-                }
-                omega += s.omega;
-                current += s.current;
-            }
-            let n = SAFETY_SAMPLES as f32;
-            if (omega / n).abs() <= 0.02 * self.limits.speed {
-                if (current / n).abs() > 0.02 * self.limits.current {
-                    return Err(Refusal::SensorFault);
-                }
-                return Ok(());
-            }
-        }
-        Err(Refusal::NotAtRest)
-    }
-
     /// Self-commissioning: safety checks, then a bounded experiment over the record's
     /// length (see [`commissioning_input`]: seed Section 6 speed changes, then a coast-down
     /// for friction; a trip of the current or speed limit stops the drive and aborts), read
@@ -461,45 +244,17 @@ impl<'s, const N: usize> Service<'s, N> {
         seed: u64,
         hw: &mut Hardware<L, D, P, W>,
     ) -> Result<MotorReport, JobEnd> {
-        if let Err(r) = self.safety_checks(&mut hw.drive, &mut hw.watchdog) {
+        if let Err(r) = safety_checks(&self.limits, &mut hw.drive, &mut hw.watchdog) {
             hw.drive.stop();
             return fail(JobEnd::Refused(r), &mut hw.link);
         }
-        let dt = hw.drive.dt();
-        let s = &mut *self.store;
-        s.dt = dt;
-        s.with_current = true;
-        s.len = 0;
-        s.expected = N;
-        s.coast_from = Some(coast_start(N));
-        for k in 0..N {
-            hw.watchdog.feed();
-            let input = commissioning_input(k, N, dt, self.limits.voltage);
-            let sample = hw.drive.apply(input);
-            let within = sample.current.abs() <= self.limits.current
-                && sample.omega.abs() <= self.limits.speed;
-            if !within {
-                hw.drive.stop();
-                return fail(JobEnd::Refused(Refusal::Trip), &mut hw.link);
-            }
-            s.v[k] = input.recorded_volts();
-            s.omega[k] = sample.omega;
-            s.current[k] = sample.current;
-            s.len = k + 1;
-            if k % 256 == 0 {
-                hw.link.send(&BoardMessage::Progress {
-                    stage: JobStage::Experiment,
-                    iteration: k as u32,
-                    evaluations: 0,
-                    best: 0.0,
-                });
-                if abort_requested(&mut hw.link) {
-                    hw.drive.stop();
-                    return fail(JobEnd::Aborted, &mut hw.link);
-                }
-            }
-        }
-        hw.drive.stop();
+        run_experiment(
+            self.store,
+            &self.limits,
+            &mut hw.link,
+            &mut hw.drive,
+            &mut hw.watchdog,
+        )?;
         self.identify_and_report(
             &commissioning_spec(),
             &IdentifyConfig::board(seed),
@@ -509,68 +264,13 @@ impl<'s, const N: usize> Service<'s, N> {
     }
 }
 
-/// What the bridge does over one sample of the commissioning experiment.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Bridge {
-    /// Apply this armature voltage [V].
-    Drive(f32),
-    /// Every switch off: the motor coasts.
-    Open,
-}
-
-impl Bridge {
-    /// The voltage column of the record: the applied voltage, 0 where the bridge is open
-    /// (not applied; the record's `coast_from` says so).
-    pub fn recorded_volts(self) -> f32 {
-        match self {
-            Bridge::Drive(volts) => volts,
-            Bridge::Open => 0.0,
-        }
-    }
-}
-
-/// First sample of the coast-down in a commissioning record of `n` samples: the last
-/// quarter coasts.
-pub const fn coast_start(n: usize) -> usize {
-    n - n / 4
-}
-
-/// Input of sample `k` of the commissioning experiment of `n` samples at step `dt` within
-/// `voltage`: the voltage steps ½ → 1 → ¼ of the limit ([`Profile::Steps`], seed Section 6
-/// speed changes) over the first three quarters, then a coast-down (bridge open) over the
-/// last quarter. The steps excite the electrical and mechanical modes with the current
-/// measured; the coast-down shows the friction alone (seed Eq. 4 with `i = 0`), which
-/// separates Coulomb from viscous friction without the electrical parameters.
-pub fn commissioning_input(k: usize, n: usize, dt: f32, voltage: f32) -> Bridge {
-    let coast_from = coast_start(n);
-    if k >= coast_from {
-        return Bridge::Open;
-    }
-    let steps = Experiment {
-        profile: Profile::Steps,
-        voltage,
-        duration: dt * coast_from as f32,
-        load_torque: 0.0,
-    };
-    // min/max rather than clamp: clamp's NaN/order assertion would link float formatting
-    // (about 10 KB of flash) for a panic that cannot happen here.
-    Bridge::Drive(steps.at(k as f32 * dt).v.min(voltage).max(-voltage))
-}
-
-/// The problem a board solves when it commissions itself: the five motor parameters within
-/// the seed's Table 1 and Coulomb friction `tc` (which the coast-down pins), the other
-/// effects left out.
-pub fn commissioning_spec() -> ProblemSpec {
-    let mut spec = ProblemSpec::default();
-    spec.free(ParamId::Tc);
-    spec
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::params::ModelParams;
+    use crate::device::commissioning::SAFETY_SAMPLES;
     use crate::device::plant::{SimulatedPlant, DEMO_FRICTION};
+    use crate::model::params::ModelParams;
+    use crate::model::params::ParamId;
     use std::collections::VecDeque;
 
     /// A link whose incoming requests are queued, each released after `after` polls.
@@ -704,74 +404,6 @@ mod tests {
             (report.params[3] / 0.00267 - 1.0).abs() < 0.03,
             "{report:?}"
         );
-    }
-
-    #[test]
-    fn the_experiment_ends_with_a_coast_down_in_which_friction_alone_slows_the_shaft() {
-        let (n, dt, volts) = (SAMPLES, 0.01, LIMITS.voltage);
-        let coast = coast_start(n);
-        assert_eq!(coast, 1500);
-        let inputs: Vec<Bridge> = (0..n)
-            .map(|k| commissioning_input(k, n, dt, volts))
-            .collect();
-        assert_eq!(inputs[0], Bridge::Drive(0.5 * volts));
-        assert_eq!(inputs[700], Bridge::Drive(volts));
-        assert_eq!(inputs[coast - 1], Bridge::Drive(0.25 * volts));
-        assert!(inputs[coast..].iter().all(|b| *b == Bridge::Open));
-        // Run it on a noise-free plant: in the coast-down no current flows and the speed
-        // follows seed Eq. 4 with i = 0, w(t) = (w0 + tc/B) e^(-B t / J) - tc/B.
-        let p = crate::device::plant::demo_motor();
-        let mut plant = SimulatedPlant::new(&p, dt, 0.0, 0.0, 1).unwrap();
-        let samples: Vec<Sample> = inputs.iter().map(|b| plant.apply(*b)).collect();
-        let w0 = samples[coast].omega;
-        assert!(w0 > 50.0, "turning when the bridge opens: {w0}");
-        let (j, b, tc) = (0.0424f32, 0.00267f32, DEMO_FRICTION);
-        for (m, s) in samples[coast + 1..].iter().enumerate() {
-            let t = (m + 1) as f32 * dt;
-            let want = (w0 + tc / b) * (-b * t / j).exp() - tc / b;
-            assert!(
-                (s.omega - want).abs() < 1e-3 * w0,
-                "{t} s: {} vs {want}",
-                s.omega
-            );
-            assert_eq!(s.current, 0.0);
-        }
-    }
-
-    #[test]
-    fn a_noise_free_commissioning_record_is_the_models_own_simulation_bit_for_bit() {
-        // The plant and the fit open the bridge at the same sample: the true parameters
-        // reproduce every reading exactly, so a coast-down one step early or late would show.
-        let (n, truth) = (SAMPLES, crate::device::plant::demo_motor());
-        let data = crate::testkit::Owned::commissioning(&truth, n, 0.01, LIMITS.voltage);
-        let record = data.record(true, false);
-        assert_eq!(record.coast_from, Some(coast_start(n)));
-        let (w, i) = (&data.omega, &data.current);
-        let (mut sim_w, mut sim_i) = (vec![0.0f32; n], vec![0.0f32; n]);
-        crate::model::sim::simulate(
-            &truth,
-            &record,
-            crate::model::sim::InitialState::REST,
-            false,
-            &mut sim_w,
-            &mut sim_i,
-        )
-        .unwrap();
-        assert_eq!(&sim_w, w);
-        assert_eq!(&sim_i, i);
-        let cost = crate::fit::objective::Objective::new(&[record])
-            .unwrap()
-            .cost(&truth)
-            .unwrap();
-        assert_eq!(cost.sse, 0.0);
-        // The same record read as if the bridge had opened one sample later does not fit.
-        let late = Record {
-            coast_from: Some(coast_start(n) + 1),
-            ..record
-        };
-        let late = [late];
-        let objective = crate::fit::objective::Objective::new(&late).unwrap();
-        assert!(objective.cost(&truth).unwrap().sse > 0.0);
     }
 
     #[test]

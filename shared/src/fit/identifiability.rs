@@ -20,11 +20,12 @@
 //! (`Kv^2 >> Ra B`: then `Kv` is almost `c3/c1` anywhere in the box); its spread is then
 //! optimistic, since the equal-fit set is curved.
 
+use crate::capacity::MAX_FREE;
 use crate::error::Error;
 use crate::fit::linalg::symmetric_eigen;
 use crate::fit::objective::{Cost, NormalEquations, Objective};
+use crate::fit::space::Space;
 use crate::model::params::{ModelParams, ParamId};
-use crate::fit::space::{Space, MAX_FREE};
 
 /// Largest standard deviation (in natural coordinates) of a pinned direction.
 pub const PINNED_STD: f64 = 0.1;

@@ -6,13 +6,13 @@ use crate::fit::ffo::{Ffo, FfoConfig};
 use crate::fit::identifiability::{analyse, Identifiability};
 use crate::fit::initial::start;
 use crate::fit::objective::{Cost, Objective};
+use crate::fit::refine::{levenberg_marquardt, LmConfig};
+use crate::fit::space::{ProblemSpec, Space};
 use crate::model::params::ModelParams;
 use crate::model::record::Record;
-use crate::fit::refine::{levenberg_marquardt, LmConfig};
-use crate::fit::space::{ProblemSpec, Space, MAX_FREE};
 use core::ops::ControlFlow;
 
-pub use crate::capacity::{MAX_POPULATION, MAX_RESTARTS, TRACE_CAPACITY};
+use crate::capacity::{MAX_FREE, MAX_POPULATION, MAX_RESTARTS, TRACE_CAPACITY};
 
 /// Starting points of refinement taken from the FFO's final population.
 type RefineStarts = heapless::Vec<[f32; MAX_FREE], { MAX_RESTARTS + 1 }>;

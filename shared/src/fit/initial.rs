@@ -17,11 +17,12 @@
 //! amplified. The estimates are biased by noise on the regressors and by unmodelled effects,
 //! so they only seed the search; the output-error fit decides.
 
+use crate::capacity::MAX_FREE;
 use crate::fit::linalg::{Mat, Vector};
+use crate::fit::space::ProblemSpec;
 use crate::model::params::{ModelParams, ParamId};
 use crate::model::record::Record;
 use crate::model::sim::sign;
-use crate::fit::space::{ProblemSpec, MAX_FREE};
 
 /// A small least-squares problem (at most [`MAX_FREE`] unknowns) solved by a QR
 /// factorisation updated one row at a time with square-root-free Givens rotations

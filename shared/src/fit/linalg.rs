@@ -1,8 +1,8 @@
 //! Small dense linear algebra in f64 on fixed-size arrays: Cholesky solve for the
 //! Levenberg-Marquardt step and the cyclic Jacobi eigen-decomposition for the
-//! identifiability analysis. Sizes are bounded by [`crate::fit::space::MAX_FREE`].
+//! identifiability analysis. Sizes are bounded by [`crate::capacity::MAX_FREE`].
 
-use crate::fit::space::MAX_FREE;
+use crate::capacity::MAX_FREE;
 
 /// Square matrix of the largest supported size; only the leading `n x n` block is used.
 pub type Mat = [[f64; MAX_FREE]; MAX_FREE];

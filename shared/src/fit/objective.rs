@@ -5,12 +5,13 @@
 //! the nominal and perturbed parameter sets are simulated in lockstep and `J^T J`, `J^T r`
 //! accumulated per sample (fixed memory `O(dim^2)`, whatever the record length).
 
+use crate::capacity::MAX_FREE;
 use crate::error::Error;
 use crate::fit::linalg::{Mat, Vector};
+use crate::fit::space::Space;
 use crate::model::params::ModelParams;
 use crate::model::record::{noise_sigma, Record};
 use crate::model::sim::{InitialState, Reading, Simulator};
-use crate::fit::space::{Space, MAX_FREE};
 
 /// Samples summed in f32 before the partial sum is added to the f64 total.
 const BLOCK: usize = 64;
@@ -176,7 +177,7 @@ impl<'r, 'a> Objective<'r, 'a> {
             omega: init.omega + shift,
             ..init
         };
-        crate::model::sim::simulate(p, r, best, true, out_omega, out_current)
+        crate::model::record::simulate(p, r, best, true, out_omega, out_current)
     }
 
     /// Residual sums of record `r` simulated with `p` (no Jacobian); `Err(())` once the

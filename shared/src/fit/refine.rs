@@ -6,9 +6,10 @@
 //! the identity keeps the step defined along directions the data does not pin (speed-only
 //! records, see [`crate::fit::identifiability`]): they are simply left where the search put them.
 
+use crate::capacity::MAX_FREE;
 use crate::fit::linalg::{cholesky_solve, Vector};
 use crate::fit::objective::{Cost, Objective};
-use crate::fit::space::{Space, MAX_FREE};
+use crate::fit::space::Space;
 use core::ops::ControlFlow;
 
 /// Levenberg-Marquardt settings.

@@ -4,7 +4,7 @@
 use crate::error::Error;
 use crate::model::params::{ModelParams, ParamId, PARAM_COUNT};
 
-pub use crate::capacity::MAX_FREE;
+use crate::capacity::MAX_FREE;
 
 /// How a free parameter maps from the unit interval.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

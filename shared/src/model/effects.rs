@@ -1,8 +1,8 @@
 //! The catalogue of unmodelled effects: names (a stable contract, see DESIGN.md) and the
 //! parameters each one adds to the model. Their physics lives in [`crate::model::sim`].
 
+use crate::capacity::MAX_DELAY_SAMPLES;
 use crate::model::params::{ModelParams, ParamId};
-use crate::model::sim::MAX_DELAY_SAMPLES;
 
 /// One effect that the linear model of seed Eq. 5 lacks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

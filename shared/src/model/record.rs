@@ -3,7 +3,7 @@
 
 use crate::error::Error;
 use crate::model::params::{ModelParams, ParamId};
-use crate::model::sim::{sign, InitialState, StepInput};
+use crate::model::sim::{sign, InitialState, Simulator, StepInput};
 
 /// Fewest samples a record may hold.
 pub const MIN_SAMPLES: usize = 8;
@@ -169,6 +169,33 @@ pub fn noise_sigma(x: &[f32]) -> f32 {
     // = 0.7737 sigma^2.
     let var_d = trimmed / count as f64 / 0.7737;
     libm::sqrt(var_d / 6.0) as f32
+}
+
+/// Simulate record `r`'s inputs (voltage, load, coast-down) from `init`:
+/// `out_omega[k]` and `out_current[k]` are the readings at sample `k`, before the input of
+/// sample `k` is applied (the convention of [`crate::model::record`]). With `track_angle`, the
+/// ripple angle follows the record's measured speed (see [`Simulator::apply`]).
+pub fn simulate(
+    p: &ModelParams,
+    r: &Record,
+    init: InitialState,
+    track_angle: bool,
+    out_omega: &mut [f32],
+    out_current: &mut [f32],
+) -> Result<(), Error> {
+    let n = r.len();
+    if out_omega.len() != n || out_current.len() != n {
+        return Err(Error::LengthMismatch);
+    }
+    r.validate()?;
+    let mut sim = Simulator::new(p, r.dt, init)?;
+    for k in 0..n {
+        let y = sim.reading();
+        out_omega[k] = y.omega;
+        out_current[k] = y.current;
+        sim.apply(&r.step_input(k, track_angle));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

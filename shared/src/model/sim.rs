@@ -9,12 +9,11 @@
 //! The state is kept as a compensated (two-sum) f32 pair so that slow modes at high sample
 //! rates do not stall on f32 rounding.
 
-use crate::model::discretise::Discrete;
 use crate::error::Error;
+use crate::model::discretise::Discrete;
 use crate::model::params::{ModelParams, ParamId};
-use crate::model::record::Record;
 
-pub use crate::capacity::MAX_DELAY_SAMPLES;
+use crate::capacity::MAX_DELAY_SAMPLES;
 const RING: usize = MAX_DELAY_SAMPLES + 2;
 // Ring positions are bytes (a Simulator is copied a dozen times into every Jacobian).
 const _: () = assert!(RING <= u8::MAX as usize);
@@ -482,37 +481,11 @@ impl Simulator {
     }
 }
 
-/// Simulate record `r`'s inputs (voltage, load, coast-down) from `init`:
-/// `out_omega[k]` and `out_current[k]` are the readings at sample `k`, before the input of
-/// sample `k` is applied (the convention of [`crate::model::record`]). With `track_angle`, the
-/// ripple angle follows the record's measured speed (see [`Simulator::apply`]).
-pub fn simulate(
-    p: &ModelParams,
-    r: &Record,
-    init: InitialState,
-    track_angle: bool,
-    out_omega: &mut [f32],
-    out_current: &mut [f32],
-) -> Result<(), Error> {
-    let n = r.len();
-    if out_omega.len() != n || out_current.len() != n {
-        return Err(Error::LengthMismatch);
-    }
-    r.validate()?;
-    let mut sim = Simulator::new(p, r.dt, init)?;
-    for k in 0..n {
-        let y = sim.reading();
-        out_omega[k] = y.omega;
-        out_current[k] = y.current;
-        sim.apply(&r.step_input(k, track_angle));
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::model::profile::{Experiment, Profile};
+    use crate::model::record::{simulate, Record};
     use proptest::prelude::*;
     use std::vec;
     use std::vec::Vec;

@@ -4,8 +4,8 @@
 use crate::error::Error;
 use crate::model::params::ModelParams;
 use crate::model::profile::Experiment;
-use crate::rng;
 use crate::model::sim::{InitialState, Simulator};
+use crate::rng;
 
 /// Standard deviations of white measurement noise.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -136,7 +136,7 @@ mod tests {
             },
             HostMessage::Identify {
                 seed: 7,
-                pipeline: crate::fit::identify::Pipeline::Board,
+                pipeline: PipelineName::Board,
             },
             HostMessage::RecordChunk {
                 offset: 16,

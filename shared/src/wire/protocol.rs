@@ -2,7 +2,6 @@
 //! the frames of [`crate::wire::frame`]). A hello exchange carries [`PROTOCOL_VERSION`] so that a
 //! host and a firmware that disagree refuse politely instead of misreading each other.
 
-pub use crate::fit::identify::Pipeline;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
@@ -47,7 +46,7 @@ pub enum HostMessage {
         /// Random seed of the identification.
         seed: u64,
         /// Which pipeline (the same settings as the host's `identify --pipeline`).
-        pipeline: Pipeline,
+        pipeline: PipelineName,
     },
     /// Run self-commissioning now (bounded experiment, identify, store).
     Commission {
@@ -60,6 +59,19 @@ pub enum HostMessage {
     ClearParams,
     /// Stop the running identification or experiment.
     Abort,
+}
+
+/// Which identification pipeline the board runs: the settings of the host's
+/// `identify --pipeline` of the same name, so that the two answers agree bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PipelineName {
+    /// Equation-error start, short FFO, least squares.
+    Default,
+    /// Start and least squares, the FFO only above the noise floor (commissioning's).
+    Board,
+    /// The seed paper's FFO alone.
+    Paper,
 }
 
 /// Stage of a long job, in progress reports.

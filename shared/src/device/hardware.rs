@@ -1,0 +1,98 @@
+//! The board as the application sees it: the traits that the board and QEMU builds
+//! implement (link to the host, power stage with its sensors, parameter store, watchdog).
+//! No register and no arithmetic here.
+
+use crate::wire::protocol::{BoardMessage, HostMessage, MotorReport};
+
+/// The byte link to the host, message by message.
+pub trait Link {
+    /// Send one message.
+    fn send(&mut self, msg: &BoardMessage);
+    /// A message if one has arrived (never blocks).
+    fn poll(&mut self) -> Option<HostMessage>;
+}
+
+/// One sample of the drive's sensors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Tacho speed [rad/s].
+    pub omega: f32,
+    /// Armature current [A].
+    pub current: f32,
+}
+
+/// The power stage and its sensors, sampled at a fixed rate.
+pub trait Drive {
+    /// Sample period [s].
+    fn dt(&self) -> f32;
+    /// Wait for the next sample, return it, then apply `volts` until the one after.
+    fn step(&mut self, volts: f32) -> Sample;
+    /// Wait for the next sample, return it, then keep every bridge switch off until the one
+    /// after (open circuit: the motor coasts; the next [`Drive::step`] drives it again).
+    fn coast(&mut self) -> Sample;
+    /// [`Drive::step`] or [`Drive::coast`], as `bridge` says.
+    fn apply(&mut self, bridge: Bridge) -> Sample {
+        match bridge {
+            Bridge::Drive(volts) => self.step(volts),
+            Bridge::Open => self.coast(),
+        }
+    }
+    /// Remove drive (all bridge switches off: the motor coasts).
+    fn stop(&mut self);
+}
+
+/// Non-volatile storage of the identified motor.
+pub trait ParamStore {
+    /// The stored motor, if valid.
+    fn load(&mut self) -> Option<MotorReport>;
+    /// Store `report`.
+    fn save(&mut self, report: &MotorReport);
+    /// Erase.
+    fn clear(&mut self);
+}
+
+/// The independent watchdog: it stays on during experiments and identification, which feed
+/// it at every sample and every optimiser iteration.
+pub trait Watchdog {
+    /// Restart the watchdog's count-down.
+    fn feed(&mut self);
+}
+
+/// For builds without a watchdog (QEMU does not model the IWDG).
+pub struct NoWatchdog;
+
+impl Watchdog for NoWatchdog {
+    fn feed(&mut self) {}
+}
+
+/// The board as the application sees it: link, drive, parameter store, watchdog.
+pub struct Hardware<L, D, P, W> {
+    /// Link to the host.
+    pub link: L,
+    /// Power stage and sensors.
+    pub drive: D,
+    /// Non-volatile parameters.
+    pub params: P,
+    /// Independent watchdog.
+    pub watchdog: W,
+}
+
+/// What the bridge does over one sample of the commissioning experiment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bridge {
+    /// Apply this armature voltage [V].
+    Drive(f32),
+    /// Every switch off: the motor coasts.
+    Open,
+}
+
+impl Bridge {
+    /// The voltage column of the record: the applied voltage, 0 where the bridge is open
+    /// (not applied; the record's `coast_from` says so).
+    pub fn recorded_volts(self) -> f32 {
+        match self {
+            Bridge::Drive(volts) => volts,
+            Bridge::Open => 0.0,
+        }
+    }
+}
