@@ -1,5 +1,5 @@
 //! Helpers for the end-to-end tests in `tests/tests/`: they drive the `motor-id` binary
-//! exactly as a user (or another tool) would, through the CLI/CSV/JSON contract of DESIGN.md.
+//! exactly as a user (or another tool) would, through the CLI/CSV/JSON contract of `docs/CONTRACTS.md`.
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};

@@ -68,7 +68,7 @@ fn motors_across_the_box_within_one_percent() {
 
 #[test]
 fn what_the_record_cannot_resolve_is_flagged_not_guessed() {
-    // DESIGN.md's corner (complex poles near -25 +- 632j): viscous friction 0.0005 is
+    // The box's corner (complex poles near -25 +- 632j): viscous friction 0.0005 is
     // invisible next to Kv^2 = 4, so b is not pinned while the rest is recovered.
     let r = identify([0.5, 0.01, 0.001, 0.0005, 2.0], 1);
     let ident = &r["identifiability"]["parameters"];

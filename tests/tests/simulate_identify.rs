@@ -186,7 +186,7 @@ fn paper_faithful_mode_reproduces_the_seed_workflow() {
         trace.windows(2).all(|w| w[1] <= w[0]),
         "best RMSE must never rise"
     );
-    // It gets close to the data (the signal spans 0..230 rad/s) but, as DESIGN.md warns,
+    // It gets close to the data (the signal spans 0..230 rad/s) but, as `docs/ARCHITECTURE.md` warns,
     // not necessarily to the 0.2 rad/s noise floor.
     let last = *trace.last().unwrap();
     assert!(

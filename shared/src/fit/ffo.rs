@@ -24,7 +24,7 @@
 //! - The soil step direction is configurable ([`Soil`]): `AwayFromBest`, `Y + w (Y - Best)`, as
 //!   the original is usually transcribed (kept for the paper-faithful mode), or
 //!   `TowardsBest`, `Y + w (Best - Y)` with `w = W1 U(0, 1)` per dimension, which converges
-//!   (DESIGN.md: median 14,600 evaluations to the noise floor instead of never in 40,100).
+//!   (measured on the seed's motor: median 14,600 evaluations to the noise floor instead of never in 40,100).
 //! - Non-finite costs are `INFINITY`: such candidates are rejected, never a crash.
 //! - The cost function is told the cost a candidate must beat (its parent's; `INFINITY` for
 //!   the initial population) and may stop as soon as it knows the candidate cannot, returning

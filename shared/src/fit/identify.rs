@@ -1,5 +1,5 @@
 //! Identification: FFO over the bounds, then Levenberg-Marquardt to the noise floor, then the
-//! identifiability analysis (DESIGN.md data flow, steps 3-5).
+//! identifiability analysis (`docs/ARCHITECTURE.md`, data flow).
 
 use crate::error::Error;
 use crate::fit::ffo::{Ffo, FfoConfig};

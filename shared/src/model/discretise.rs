@@ -274,7 +274,7 @@ mod tests {
     fn matches_fine_rk4_in_every_branch() {
         // Seed motor (complex poles at 1 kHz): trigonometric branch.
         check(ModelParams::SEED_MOTOR, 1e-3);
-        // The DESIGN.md corner where Euler/RK4 diverge: complex poles near -25 +- 632j.
+        // The corner of the Table 1 box where Euler/RK4 diverge (`docs/ARCHITECTURE.md`): complex poles near -25 +- 632j.
         check(ModelParams::motor(0.5, 0.01, 0.001, 0.0005, 2.0), 1e-3);
         // Small step: Taylor branch.
         check(ModelParams::SEED_MOTOR, 2e-5);

@@ -1,4 +1,4 @@
-//! The catalogue of unmodelled effects: names (a stable contract, see DESIGN.md) and the
+//! The catalogue of unmodelled effects: names (a stable contract, see `docs/CONTRACTS.md`) and the
 //! parameters each one adds to the model. Their physics lives in [`crate::model::sim`].
 
 use crate::capacity::MAX_DELAY_SAMPLES;
@@ -34,7 +34,7 @@ impl Effect {
         Effect::TachoRipple,
     ];
 
-    /// Stable name (DESIGN.md contract).
+    /// Stable name (`docs/CONTRACTS.md`, parameters and effects).
     pub const fn name(self) -> &'static str {
         match self {
             Effect::CoulombFriction => "coulomb_friction",

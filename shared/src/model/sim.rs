@@ -516,7 +516,7 @@ mod tests {
 
     #[test]
     fn design_md_equal_fit_sets_give_the_same_speed_trace() {
-        // Scaling (Ra, La) by 2.5 and (J, B) by 1/2.5 (DESIGN.md) leaves seed Eq. 6 unchanged.
+        // Scaling (Ra, La) by 2.5 and (J, B) by 1/2.5 (`docs/ARCHITECTURE.md`, the identifiability trap) leaves seed Eq. 6 unchanged.
         let paper = ModelParams::SEED_MOTOR;
         let scaled = ModelParams::motor(8.53, 0.14325, 0.01696, 0.001068, 0.1604);
         let a = trace(&paper, 1e-3, 20_000);
@@ -622,7 +622,7 @@ mod tests {
     proptest! {
         #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
         /// Any motor in the Table 1 box, with any effects, at any rate from 100 Hz to 50 kHz,
-        /// simulates to finite numbers (DESIGN.md: Euler/RK4 diverge for part of the box).
+        /// simulates to finite numbers (Euler/RK4 diverge for part of the box, `docs/ARCHITECTURE.md`).
         #[test]
         fn every_motor_in_the_box_simulates_finite(
             ra in log_uniform(0.5, 10.0),
