@@ -8,6 +8,9 @@ use motor_id_shared::device::hardware::{Drive, Hardware, Link, ParamStore, Watch
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::record_store::RecordStore;
 use motor_id_shared::device::service::{Boot, Service};
+use motor_id_shared::wire::protocol::{MotorReport, NotStored};
+use motor_id_shared::wire::stored::STORE_VERSION;
+use motor_id_shared::ParamId;
 
 /// Longest record the board holds (2,000 samples of voltage, speed and current: 24 KB).
 pub const MAX_SAMPLES: usize = 2000;
@@ -51,26 +54,19 @@ pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
             );
             State::InService
         }
-        Boot::Commissioned(r) => {
-            defmt::info!(
-                "commissioned: ra={} la={} j={} b={} kv={} tc={}, rmse {} rad/s, {} evaluations; stored",
-                r.params[0],
-                r.params[1],
-                r.params[2],
-                r.params[3],
-                r.params[4],
-                r.friction.map_or(f32::NAN, |f| f.value),
-                r.rmse_omega,
-                r.evaluations
-            );
+        Boot::Commissioned { report, found } => {
+            log_not_stored(found);
+            log_report(&report);
             State::InService
         }
-        Boot::NotCommissioned(JobEnd::Aborted) => {
-            defmt::warn!("commissioning aborted by the host: no parameters");
-            State::NoParameters
-        }
-        Boot::NotCommissioned(JobEnd::Refused(why)) => {
-            defmt::warn!("commissioning failed ({}): no parameters", why);
+        Boot::NotCommissioned { end, found } => {
+            log_not_stored(found);
+            match end {
+                JobEnd::Aborted => defmt::warn!("commissioning aborted by the host: no parameters"),
+                JobEnd::Refused(why) => {
+                    defmt::warn!("commissioning failed ({}): no parameters", why)
+                }
+            }
             State::NoParameters
         }
     };
@@ -78,4 +74,33 @@ pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
     loop {
         service.poll(hw);
     }
+}
+
+/// Log why power-up commissions.
+fn log_not_stored(found: NotStored) {
+    match found {
+        NotStored::Empty => defmt::info!("no parameters stored: commissioning"),
+        NotStored::OtherLayout { found } => defmt::warn!(
+            "stored parameters of layout {} are not read by this firmware (layout {}): commissioning",
+            found,
+            STORE_VERSION
+        ),
+        NotStored::Corrupt => defmt::warn!("stored parameters corrupted (CRC): commissioning"),
+    }
+}
+
+/// Log a new report: every estimate by name with its standard deviation (NaN: not pinned).
+fn log_report(report: &MotorReport) {
+    for e in &report.estimates {
+        let name = ParamId::ALL
+            .get(usize::from(e.param))
+            .map_or("?", |p| p.name());
+        defmt::info!("  {=str} = {} +- {}", name, e.value, e.std);
+    }
+    defmt::info!(
+        "commissioned: rmse {} rad/s, {} evaluations, rank {}; stored",
+        report.rmse_omega,
+        report.evaluations,
+        report.rank
+    );
 }

@@ -2,7 +2,7 @@
 //! layout version, CRC) in one flash sector of the board, or in RAM for QEMU.
 
 use motor_id_shared::device::hardware::ParamStore;
-use motor_id_shared::wire::protocol::MotorReport;
+use motor_id_shared::wire::protocol::{MotorReport, NotStored};
 use motor_id_shared::wire::stored::{self, STORED_LEN};
 
 /// The bytes of a parameter sector.
@@ -19,7 +19,7 @@ pub trait ParamFlash {
 pub struct FlashStore<F>(pub F);
 
 impl<F: ParamFlash> ParamStore for FlashStore<F> {
-    fn load(&mut self) -> Option<MotorReport> {
+    fn load(&mut self) -> Result<MotorReport, NotStored> {
         stored::decode(&self.0.read())
     }
 

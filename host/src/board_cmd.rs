@@ -11,7 +11,8 @@ use motor_id_shared::fit::identify::{Progress, Stage};
 use motor_id_shared::model::params::ParamId;
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
-    BoardMessage, HostMessage, JobStage, MotorReport, Refusal, CHUNK, PROTOCOL_VERSION,
+    BoardMessage, Estimate, HostMessage, JobStage, MotorReport, NotStored, Refusal, CHUNK,
+    PROTOCOL_VERSION,
 };
 use serde_json::{json, Map, Value};
 use std::io::{Read, Write};
@@ -214,52 +215,47 @@ fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
     out
 }
 
-fn report_json(r: &MotorReport) -> Value {
+/// The parameter an estimate names (its wire code is its position in `ParamId::ALL`).
+fn param_of(e: &Estimate) -> Result<ParamId> {
+    ParamId::ALL
+        .get(usize::from(e.param))
+        .copied()
+        .ok_or_else(|| anyhow!("the board reports an unknown parameter (code {})", e.param))
+}
+
+fn report_json(r: &MotorReport) -> Result<Value> {
     let mut params = Map::new();
     let mut ident = Map::new();
-    for (k, id) in ParamId::MOTOR.iter().enumerate() {
-        params.insert(id.name().into(), num(r.params[k]));
-        let std = r.std[k];
-        ident.insert(
-            id.name().into(),
-            json!({ "value": num(r.params[k]), "pinned": std.is_finite(), "std": num(std) }),
-        );
-    }
-    if let Some(f) = r.friction {
-        let name = ParamId::Tc.name();
-        params.insert(name.into(), num(f.value));
+    for e in &r.estimates {
+        let name = param_of(e)?.name();
+        params.insert(name.into(), num(e.value));
         ident.insert(
             name.into(),
-            json!({ "value": num(f.value), "pinned": f.std.is_finite(), "std": num(f.std) }),
+            json!({ "value": num(e.value), "pinned": e.pinned(), "std": num(e.std) }),
         );
     }
-    json!({
+    Ok(json!({
         "params": params,
         "rmse_omega": num(r.rmse_omega),
         "evaluations": r.evaluations,
         "identifiability": { "rank": r.rank, "free": ident.len(), "parameters": ident },
-    })
+    }))
 }
 
-fn print_report(r: &MotorReport) {
-    let line = |name: &str, value: f32, std: f32| {
-        let std = if std.is_finite() {
-            format!("+- {std:.3e}")
+fn print_report(r: &MotorReport) -> Result<()> {
+    for e in &r.estimates {
+        let std = if e.pinned() {
+            format!("+- {:.3e}", e.std)
         } else {
             "NOT pinned".into()
         };
-        println!("  {name:<3} = {value:<14} {std}");
-    };
-    for (k, id) in ParamId::MOTOR.iter().enumerate() {
-        line(id.name(), r.params[k], r.std[k]);
-    }
-    if let Some(f) = r.friction {
-        line(ParamId::Tc.name(), f.value, f.std);
+        println!("  {:<3} = {:<14} {std}", param_of(e)?.name(), e.value);
     }
     println!(
         "rmse_omega = {} rad/s, {} evaluations, rank {}",
         r.rmse_omega, r.evaluations, r.rank
     );
+    Ok(())
 }
 
 /// Run `board`.
@@ -324,12 +320,12 @@ pub fn run(a: &BoardArgs) -> Result<()> {
         BoardAction::Params => {
             let stored = c.request(&HostMessage::ReadParams, |reply| match reply {
                 BoardMessage::Params(p) => Some(Ok(p)),
-                other => refused(&other).map(|r| r.map(|_| None)),
+                other => refused(&other).map(|r| r.map(|_| Err(NotStored::Empty))),
             })?;
             match stored {
-                Some(r) => r,
-                None => {
-                    println!("no parameters stored: the board commissions at its next power-up");
+                Ok(r) => r,
+                Err(why) => {
+                    println!("{why}: the board commissions at its next power-up");
                     return Ok(());
                 }
             }
@@ -343,9 +339,9 @@ pub fn run(a: &BoardArgs) -> Result<()> {
             return Ok(());
         }
     };
-    print_report(&report);
+    print_report(&report)?;
     if let Some(path) = &a.json {
-        write_json(path, &report_json(&report))?;
+        write_json(path, &report_json(&report)?)?;
     }
     Ok(())
 }

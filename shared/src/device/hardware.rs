@@ -2,7 +2,7 @@
 //! implement (link to the host, power stage with its sensors, parameter store, watchdog).
 //! No register and no arithmetic here.
 
-use crate::wire::protocol::{BoardMessage, HostMessage, MotorReport};
+use crate::wire::protocol::{BoardMessage, HostMessage, MotorReport, NotStored};
 
 /// The byte link to the host, message by message.
 pub trait Link {
@@ -43,8 +43,8 @@ pub trait Drive {
 
 /// Non-volatile storage of the identified motor.
 pub trait ParamStore {
-    /// The stored motor, if valid.
-    fn load(&mut self) -> Option<MotorReport>;
+    /// The stored motor, or why none is read (nothing stored, another layout, corrupted).
+    fn load(&mut self) -> Result<MotorReport, NotStored>;
     /// Store `report`.
     fn save(&mut self, report: &MotorReport);
     /// Erase.

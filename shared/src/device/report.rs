@@ -4,31 +4,29 @@ use crate::fit::identify::Identification;
 use crate::model::params::ParamId;
 use crate::wire::protocol::{Estimate, MotorReport};
 
-/// Report of an identification in the message form.
-pub fn motor_report(id: &Identification) -> MotorReport {
-    // A free parameter's value and standard deviation (NaN when not pinned); `None` for a
-    // parameter that was not identified.
-    let estimate = |p: ParamId| {
-        let certainty = id.identifiability.params.iter().find(|c| c.id == p)?;
-        Some(Estimate {
-            value: id.params.get(p),
-            std: certainty.std.unwrap_or(f32::NAN),
-        })
-    };
-    let mut params = [0.0f32; 5];
-    let mut std = [f32::NAN; 5];
-    for (k, p) in ParamId::MOTOR.iter().enumerate() {
-        params[k] = id.params.get(*p);
-        if let Some(e) = estimate(*p) {
-            std[k] = e.std;
+/// Report of an identification in the message form: the five motor parameters, then every
+/// other parameter the identification fitted, each with its standard deviation (NaN when
+/// the data does not pin it, or when it was held fixed). `None` when the estimates do not fit
+/// the report's capacity (more effect parameters than a board reports; the board's own
+/// problems, a streamed record's five and commissioning's six, always fit).
+pub fn motor_report(id: &Identification) -> Option<MotorReport> {
+    let mut estimates = heapless::Vec::new();
+    for p in ParamId::ALL {
+        let certainty = id.identifiability.params.iter().find(|c| c.id == p);
+        if !(p.is_motor() || certainty.is_some()) {
+            continue;
         }
+        let estimate = Estimate {
+            param: p.index() as u8,
+            value: id.params.get(p),
+            std: certainty.and_then(|c| c.std).unwrap_or(f32::NAN),
+        };
+        estimates.push(estimate).ok()?;
     }
-    MotorReport {
-        params,
-        std,
-        friction: estimate(ParamId::Tc),
+    Some(MotorReport {
+        estimates,
         rmse_omega: id.cost.rmse_omega,
         evaluations: id.evaluations,
         rank: id.identifiability.rank as u8,
-    }
+    })
 }

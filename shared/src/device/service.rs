@@ -14,7 +14,8 @@ use crate::device::report::motor_report;
 use crate::fit::identify::{identify, IdentifyConfig, Pipeline, Progress, Stage};
 use crate::fit::space::ProblemSpec;
 use crate::wire::protocol::{
-    BoardMessage, HostMessage, JobStage, MotorReport, PipelineName, Refusal, PROTOCOL_VERSION,
+    BoardMessage, HostMessage, JobStage, MotorReport, NotStored, PipelineName, Refusal,
+    PROTOCOL_VERSION,
 };
 use core::ops::ControlFlow;
 
@@ -22,15 +23,26 @@ use core::ops::ControlFlow;
 pub const BOOT_SEED: u64 = 1;
 
 /// How power-up went.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Boot {
     /// Valid parameters were stored: straight into service.
     InService(MotorReport),
-    /// Nothing valid was stored: the motor was commissioned and its parameters stored.
-    Commissioned(MotorReport),
-    /// Commissioning failed (safety check, trip, invalid data) or was aborted; the board
-    /// serves the host without parameters.
-    NotCommissioned(JobEnd),
+    /// Nothing valid was stored (`found` says why): the motor was commissioned and its
+    /// parameters stored.
+    Commissioned {
+        /// The new parameters.
+        report: MotorReport,
+        /// Why the store held none this firmware reads.
+        found: NotStored,
+    },
+    /// Nothing valid was stored (`found` says why) and commissioning failed (safety check,
+    /// trip, invalid data) or was aborted; the board serves the host without parameters.
+    NotCommissioned {
+        /// How commissioning ended.
+        end: JobEnd,
+        /// Why the store held none this firmware reads.
+        found: NotStored,
+    },
 }
 
 /// The pipeline a host asks for by name.
@@ -66,12 +78,13 @@ impl<'s, const N: usize> Service<'s, N> {
         hw: &mut Hardware<L, D, P, W>,
     ) -> Boot {
         hw.watchdog.feed();
-        if let Some(stored) = hw.params.load() {
-            return Boot::InService(stored);
-        }
+        let found = match hw.params.load() {
+            Ok(stored) => return Boot::InService(stored),
+            Err(found) => found,
+        };
         match self.commission(BOOT_SEED, hw) {
-            Ok(report) => Boot::Commissioned(report),
-            Err(end) => Boot::NotCommissioned(end),
+            Ok(report) => Boot::Commissioned { report, found },
+            Err(end) => Boot::NotCommissioned { end, found },
         }
     }
 
@@ -220,14 +233,17 @@ impl<'s, const N: usize> Service<'s, N> {
         hw.watchdog.feed();
         let end = match result {
             _ if aborted => JobEnd::Aborted,
-            Ok(id) => {
-                let report = motor_report(&id);
-                if store {
-                    hw.params.save(&report);
+            // The board's own problems always fit its report (see `motor_report`).
+            Ok(id) => match motor_report(&id) {
+                Some(report) => {
+                    if store {
+                        hw.params.save(&report);
+                    }
+                    hw.link.send(&BoardMessage::Identified(report.clone()));
+                    return Ok(report);
                 }
-                hw.link.send(&BoardMessage::Identified(report));
-                return Ok(report);
-            }
+                None => JobEnd::Refused(Refusal::InvalidRecord),
+            },
             Err(crate::Error::InvalidConfig) => JobEnd::Refused(Refusal::PipelineTooLarge),
             Err(_) => JobEnd::Refused(Refusal::InvalidRecord),
         };
@@ -298,11 +314,11 @@ mod tests {
     struct RamParams(Option<MotorReport>, u32);
 
     impl ParamStore for RamParams {
-        fn load(&mut self) -> Option<MotorReport> {
-            self.0
+        fn load(&mut self) -> Result<MotorReport, NotStored> {
+            self.0.clone().ok_or(NotStored::Empty)
         }
         fn save(&mut self, report: &MotorReport) {
-            self.0 = Some(*report);
+            self.0 = Some(report.clone());
             self.1 += 1;
         }
         fn clear(&mut self) {
@@ -347,6 +363,19 @@ mod tests {
         plant_with_friction(DEMO_FRICTION)
     }
 
+    /// Motor parameter `k` (Ra, La, J, B, Kv) of a report.
+    fn motor_value(report: &MotorReport, k: usize) -> f32 {
+        let e = report.get(ParamId::MOTOR[k].index() as u8);
+        e.expect("every report holds the five motor parameters")
+            .value
+    }
+
+    /// The Coulomb friction a commissioning report holds.
+    fn friction_of(report: &MotorReport) -> crate::wire::protocol::Estimate {
+        let tc = report.get(ParamId::Tc.index() as u8);
+        tc.expect("commissioning identifies friction")
+    }
+
     fn progress_count(sent: &[BoardMessage]) -> u32 {
         sent.iter()
             .filter(|m| matches!(m, BoardMessage::Progress { .. }))
@@ -358,23 +387,28 @@ mod tests {
         let mut store = RecordStore::<SAMPLES>::new();
         let mut service = Service::new(&mut store, LIMITS);
         let mut hw = hardware(seed_plant());
-        let Boot::Commissioned(report) = service.boot(&mut hw) else {
+        let Boot::Commissioned { report, found } = service.boot(&mut hw) else {
             panic!("expected commissioning, got {:?}", hw.link.sent.last());
         };
+        assert_eq!(found, NotStored::Empty);
         let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
-        for (got, want) in report.params.iter().zip(truth) {
+        for (k, want) in truth.into_iter().enumerate() {
+            let got = motor_value(&report, k);
             assert!((got / want - 1.0).abs() < 0.03, "{got} vs {want}");
         }
-        let friction = report.friction.expect("commissioning identifies friction");
+        let friction = friction_of(&report);
         assert!(
             (friction.value / DEMO_FRICTION - 1.0).abs() < 0.03,
             "tc {friction:?}"
         );
         assert!(friction.std < 0.1 * DEMO_FRICTION, "tc {friction:?}");
         assert_eq!(report.rank, 6, "speed, current and coast-down pin all six");
-        assert_eq!(hw.params.0, Some(report));
+        assert_eq!(hw.params.0, Some(report.clone()));
         assert_eq!(hw.drive.stopped, 1, "drive removed after the experiment");
-        assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Identified(report)));
+        assert_eq!(
+            hw.link.sent.last(),
+            Some(&BoardMessage::Identified(report.clone()))
+        );
         // Every sample and every progress report fed the watchdog.
         assert!(
             hw.watchdog.0 > (SAFETY_SAMPLES + SAMPLES) as u32 + progress_count(&hw.link.sent) - 8
@@ -393,7 +427,7 @@ mod tests {
         let mut service = Service::new(&mut store, LIMITS);
         let mut hw = hardware(plant_with_friction(0.0));
         let report = service.commission(1, &mut hw).expect("commissioned");
-        let friction = report.friction.expect("commissioning identifies friction");
+        let friction = friction_of(&report);
         // Within three standard deviations of none, and under 1 % of the stall torque.
         assert!(friction.value <= 3.0 * friction.std, "tc {friction:?}");
         assert!(
@@ -401,7 +435,7 @@ mod tests {
             "tc {friction:?}"
         );
         assert!(
-            (report.params[3] / 0.00267 - 1.0).abs() < 0.03,
+            (motor_value(&report, 3) / 0.00267 - 1.0).abs() < 0.03,
             "{report:?}"
         );
     }
@@ -414,7 +448,13 @@ mod tests {
         plant.offset.current = 2.0;
         let mut hw = hardware(plant);
         let end = JobEnd::Refused(Refusal::SensorFault);
-        assert_eq!(service.boot(&mut hw), Boot::NotCommissioned(end));
+        assert_eq!(
+            service.boot(&mut hw),
+            Boot::NotCommissioned {
+                end,
+                found: NotStored::Empty
+            }
+        );
         assert_eq!(hw.params.0, None);
         assert_eq!(hw.drive.stopped, 1);
         assert_eq!(
@@ -431,7 +471,13 @@ mod tests {
         plant.offset.omega = 50.0;
         let mut hw = hardware(plant);
         let end = JobEnd::Refused(Refusal::NotAtRest);
-        assert_eq!(service.boot(&mut hw), Boot::NotCommissioned(end));
+        assert_eq!(
+            service.boot(&mut hw),
+            Boot::NotCommissioned {
+                end,
+                found: NotStored::Empty
+            }
+        );
         assert_eq!(hw.params.0, None);
     }
 
@@ -445,7 +491,8 @@ mod tests {
         let second = service
             .commission(2, &mut hw)
             .expect("second commissioning");
-        for (a, b) in first.params.iter().zip(second.params) {
+        for k in 0..5 {
+            let (a, b) = (motor_value(&first, k), motor_value(&second, k));
             assert!((a / b - 1.0).abs() < 0.03, "{a} vs {b}");
         }
     }
@@ -461,7 +508,13 @@ mod tests {
         let mut service = Service::new(&mut store, limits);
         let mut hw = hardware(seed_plant());
         let end = JobEnd::Refused(Refusal::Trip);
-        assert_eq!(service.boot(&mut hw), Boot::NotCommissioned(end));
+        assert_eq!(
+            service.boot(&mut hw),
+            Boot::NotCommissioned {
+                end,
+                found: NotStored::Empty
+            }
+        );
         assert_eq!(hw.params.0, None);
         assert_eq!(hw.drive.stopped, 1);
         assert_eq!(
@@ -484,7 +537,10 @@ mod tests {
         hw.link.incoming.push_back((9, HostMessage::Abort));
         assert_eq!(
             service.boot(&mut hw),
-            Boot::NotCommissioned(JobEnd::Aborted)
+            Boot::NotCommissioned {
+                end: JobEnd::Aborted,
+                found: NotStored::Empty
+            }
         );
         assert_eq!(hw.params.0, None);
         assert!(hw.link.sent.contains(&BoardMessage::Refused(Refusal::Busy)));
@@ -521,7 +577,7 @@ mod tests {
                     version: PROTOCOL_VERSION,
                     max_samples: SAMPLES as u32
                 },
-                BoardMessage::Params(None),
+                BoardMessage::Params(Err(NotStored::Empty)),
             ]
         );
     }

@@ -158,13 +158,16 @@ mod tests {
     }
 
     fn every_reply() -> Vec<BoardMessage> {
-        let report = MotorReport {
-            params: [3.4, 0.057, 0.042, 0.0027, 0.16],
-            std: [0.01, f32::NAN, 1e-4, 1e-5, 1e-3],
-            friction: Some(Estimate {
-                value: 0.05,
-                std: 2e-3,
-            }),
+        let values = [3.4, 0.057, 0.042, 0.0027, 0.16, 0.05];
+        let std = [0.01, f32::NAN, 1e-4, 1e-5, 1e-3, 2e-3];
+        let report = |n: usize| MotorReport {
+            estimates: (0..n)
+                .map(|k| Estimate {
+                    param: k as u8,
+                    value: values[k],
+                    std: std[k],
+                })
+                .collect(),
             rmse_omega: 0.5,
             evaluations: 60,
             rank: 4,
@@ -183,13 +186,12 @@ mod tests {
                 evaluations: 40,
                 best: 0.51,
             },
-            BoardMessage::Identified(report),
-            BoardMessage::Params(Some(report)),
-            BoardMessage::Params(None),
-            BoardMessage::Identified(MotorReport {
-                friction: None,
-                ..report
-            }),
+            BoardMessage::Identified(report(6)),
+            BoardMessage::Params(Ok(report(6))),
+            BoardMessage::Params(Err(NotStored::Empty)),
+            BoardMessage::Params(Err(NotStored::OtherLayout { found: 2 })),
+            BoardMessage::Params(Err(NotStored::Corrupt)),
+            BoardMessage::Identified(report(5)),
             BoardMessage::Cleared,
             BoardMessage::Aborted,
         ]

@@ -2,10 +2,11 @@
 //! the frames of [`crate::wire::frame`]). A hello exchange carries [`PROTOCOL_VERSION`] so that a
 //! host and a firmware that disagree refuse politely instead of misreading each other.
 
+use crate::capacity::MAX_ESTIMATES;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 4;
+pub const PROTOCOL_VERSION: u16 = 5;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -86,16 +87,11 @@ pub enum JobStage {
 }
 
 /// An identified motor as the board reports and stores it.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MotorReport {
-    /// Ra, La, J, B, Kv.
-    pub params: [f32; 5],
-    /// One standard deviation of each, NaN when not pinned.
-    pub std: [f32; 5],
-    /// Coulomb friction torque `tc` [N m], when it was identified (commissioning: the
-    /// coast-down shows it); not part of a streamed record's problem, whose spec is the
-    /// host's default.
-    pub friction: Option<Estimate>,
+    /// The five motor parameters (Ra, La, J, B, Kv), then every effect parameter that was
+    /// identified (commissioning: Coulomb friction `tc`, which its coast-down shows).
+    pub estimates: heapless::Vec<Estimate, MAX_ESTIMATES>,
     /// Speed RMSE [rad/s].
     pub rmse_omega: f32,
     /// Model evaluations spent.
@@ -104,13 +100,62 @@ pub struct MotorReport {
     pub rank: u8,
 }
 
-/// One identified value with its uncertainty.
+impl MotorReport {
+    /// The estimate of the parameter with wire code `param`, if the report has one.
+    pub fn get(&self, param: u8) -> Option<Estimate> {
+        self.estimates.iter().copied().find(|e| e.param == param)
+    }
+}
+
+/// One identified parameter with its uncertainty: the same for the five motor parameters
+/// and for the parameters of effects.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Estimate {
-    /// The value.
+    /// The parameter, by its wire code: its position in the model's parameter list (ra 0,
+    /// la 1, j 2, b 3, kv 4, tc 5, ...; `docs/CONTRACTS.md` lists them). Codes are never
+    /// reused: a new parameter takes the next one.
+    pub param: u8,
+    /// The value, in the parameter's unit.
     pub value: f32,
-    /// One standard deviation, NaN when not pinned.
+    /// One standard deviation; NaN when the data does not pin the parameter.
     pub std: f32,
+}
+
+impl Estimate {
+    /// Whether the data pins the parameter (a finite standard deviation).
+    pub fn pinned(&self) -> bool {
+        self.std.is_finite()
+    }
+}
+
+/// Why a parameter store holds no report this firmware reads (see [`crate::wire::stored`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NotStored {
+    /// Erased or never written: nothing stored.
+    Empty,
+    /// A record of another layout version (an older or newer firmware's): not read.
+    OtherLayout {
+        /// The layout version found.
+        found: u16,
+    },
+    /// A torn or corrupted record (length or CRC wrong): not read.
+    Corrupt,
+}
+
+impl core::fmt::Display for NotStored {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            NotStored::Empty => f.write_str("no parameters stored"),
+            NotStored::OtherLayout { found } => write!(
+                f,
+                "stored parameters of another layout ({found}) are not read: commission again"
+            ),
+            NotStored::Corrupt => {
+                f.write_str("stored parameters are corrupted (CRC): commission again")
+            }
+        }
+    }
 }
 
 /// Why the board refused or failed a request.
@@ -200,8 +245,8 @@ pub enum BoardMessage {
     },
     /// Identification finished.
     Identified(MotorReport),
-    /// Stored parameters, if any.
-    Params(Option<MotorReport>),
+    /// The stored parameters, or why there are none.
+    Params(Result<MotorReport, NotStored>),
     /// Stored parameters erased.
     Cleared,
     /// The job was stopped on request.

@@ -1,59 +1,69 @@
 //! The identified motor as the board keeps it in non-volatile memory (a flash sector on the
 //! board, RAM in the QEMU build): a magic word, a layout version, the postcard-encoded
 //! [`MotorReport`] and a CRC-32 over all of it. Erased flash (all `0xFF`), a record of another
-//! layout version or a torn write reads back as "nothing stored", never as wrong parameters.
+//! layout version or a torn write reads back as [`NotStored`] with its reason, never as
+//! wrong parameters. The byte layout is in `docs/CONTRACTS.md`.
 
-use crate::wire::protocol::MotorReport;
+use crate::capacity::MAX_ESTIMATES;
+use crate::wire::protocol::{MotorReport, NotStored};
 
 /// First word of a stored record ("MIDP" little-endian).
 pub const MAGIC: u32 = u32::from_le_bytes(*b"MIDP");
 
-/// Layout version of the stored record; bumped whenever [`MotorReport`] changes shape.
-pub const STORE_VERSION: u16 = 2;
+/// Layout version of the stored record; bumped whenever [`MotorReport`] changes shape
+/// (3: every parameter an estimate with its wire code).
+pub const STORE_VERSION: u16 = 3;
+
+const HEADER: usize = 8;
+const CRC_LEN: usize = 4;
+/// Largest postcard encoding of a [`MotorReport`]: the estimates' count (one byte), each
+/// estimate (code 1 + value 4 + std 4 bytes), the RMSE (4), the evaluations (a varint of
+/// at most 5) and the rank (1).
+const MAX_PAYLOAD: usize = 1 + 9 * MAX_ESTIMATES + 4 + 5 + 1;
 
 /// Bytes a stored record occupies at most (header, payload, CRC), a multiple of 4 so that the
 /// board programs it word by word.
-pub const STORED_LEN: usize = 96;
+pub const STORED_LEN: usize = (HEADER + MAX_PAYLOAD + CRC_LEN).div_ceil(4) * 4;
 
-const HEADER: usize = 8;
 const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
 /// Encode `report` as a stored record; bytes past its end are `0xFF` (erased flash).
 pub fn encode(report: &MotorReport) -> [u8; STORED_LEN] {
     let mut out = [0xFFu8; STORED_LEN];
-    let payload_room = STORED_LEN - HEADER - 4;
-    let used = postcard::to_slice(report, &mut out[HEADER..HEADER + payload_room])
+    let used = postcard::to_slice(report, &mut out[HEADER..HEADER + MAX_PAYLOAD])
         .map(|s| s.len())
-        // A MotorReport is at most 5*4*2 + 9 + 4 + 5 + 1 bytes: it always fits.
+        // At most MAX_PAYLOAD bytes (see there): it always fits.
         .unwrap_or(0);
     out[..4].copy_from_slice(&MAGIC.to_le_bytes());
     out[4..6].copy_from_slice(&STORE_VERSION.to_le_bytes());
     out[6..8].copy_from_slice(&(used as u16).to_le_bytes());
     let crc = CRC.checksum(&out[..HEADER + used]);
-    out[HEADER + used..HEADER + used + 4].copy_from_slice(&crc.to_le_bytes());
+    out[HEADER + used..HEADER + used + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
     out
 }
 
-/// The report in a stored record, or `None` when the bytes hold no valid record of this
-/// layout version (erased, torn, corrupted or older).
-pub fn decode(bytes: &[u8]) -> Option<MotorReport> {
-    if bytes.len() < HEADER + 4 {
-        return None;
+/// The report in a stored record, or why there is none this layout version reads: erased
+/// (or no magic word), another layout version, or torn or corrupted.
+pub fn decode(bytes: &[u8]) -> Result<MotorReport, NotStored> {
+    if bytes.len() < HEADER + CRC_LEN {
+        return Err(NotStored::Empty);
     }
     let word =
         |at: usize| u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
     let half = |at: usize| u16::from_le_bytes([bytes[at], bytes[at + 1]]);
-    if word(0) != MAGIC || half(4) != STORE_VERSION {
-        return None;
+    if word(0) != MAGIC {
+        return Err(NotStored::Empty);
     }
     let used = half(6) as usize;
-    if HEADER + used + 4 > bytes.len() {
-        return None;
+    if HEADER + used + CRC_LEN > bytes.len()
+        || CRC.checksum(&bytes[..HEADER + used]) != word(HEADER + used)
+    {
+        return Err(NotStored::Corrupt);
     }
-    if CRC.checksum(&bytes[..HEADER + used]) != word(HEADER + used) {
-        return None;
+    if half(4) != STORE_VERSION {
+        return Err(NotStored::OtherLayout { found: half(4) });
     }
-    postcard::from_bytes(&bytes[HEADER..HEADER + used]).ok()
+    postcard::from_bytes(&bytes[HEADER..HEADER + used]).map_err(|_| NotStored::Corrupt)
 }
 
 #[cfg(test)]
@@ -61,61 +71,68 @@ mod tests {
     use super::*;
     use crate::wire::protocol::Estimate;
 
-    fn report() -> MotorReport {
+    fn report(estimates: usize) -> MotorReport {
+        let values = [3.412, 0.0573, 0.0424, 0.00267, 0.1604, 0.05];
+        let std = [0.01, 1e-4, f32::NAN, 2e-5, 3e-4, f32::NAN];
         MotorReport {
-            params: [3.412, 0.0573, 0.0424, 0.00267, 0.1604],
-            std: [0.01, 1e-4, f32::NAN, 2e-5, 3e-4],
-            friction: Some(Estimate {
-                value: 0.05,
-                std: f32::NAN,
-            }),
+            estimates: (0..estimates)
+                .map(|k| Estimate {
+                    param: k as u8,
+                    value: values[k % 6] * (1 + k / 6) as f32,
+                    std: std[k % 6],
+                })
+                .collect(),
             rmse_omega: 0.51,
-            evaluations: 64,
+            evaluations: u32::MAX,
             rank: 5,
         }
     }
 
-    fn same(a: &MotorReport, b: &MotorReport) -> bool {
-        let bits = |x: &[f32; 5]| x.map(f32::to_bits);
-        bits(&a.params) == bits(&b.params)
-            && bits(&a.std) == bits(&b.std)
-            && a.friction.map(|f| [f.value.to_bits(), f.std.to_bits()])
-                == b.friction.map(|f| [f.value.to_bits(), f.std.to_bits()])
-            && a.rmse_omega.to_bits() == b.rmse_omega.to_bits()
-            && a.evaluations == b.evaluations
-            && a.rank == b.rank
+    fn bits(r: &MotorReport) -> std::vec::Vec<u32> {
+        let mut out: std::vec::Vec<u32> = r
+            .estimates
+            .iter()
+            .flat_map(|e| [e.param as u32, e.value.to_bits(), e.std.to_bits()])
+            .collect();
+        out.extend([r.rmse_omega.to_bits(), r.evaluations, r.rank as u32]);
+        out
+    }
+
+    /// `bytes` with its version field set to `version` and the CRC made valid again.
+    fn relabelled(mut bytes: [u8; STORED_LEN], version: u16) -> [u8; STORED_LEN] {
+        bytes[4..6].copy_from_slice(&version.to_le_bytes());
+        let used = HEADER + u16::from_le_bytes([bytes[6], bytes[7]]) as usize;
+        let crc = CRC.checksum(&bytes[..used]);
+        bytes[used..used + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
+        bytes
     }
 
     #[test]
-    fn round_trip_is_exact() {
-        let without_friction = MotorReport {
-            friction: None,
-            ..report()
-        };
-        for r in [report(), without_friction] {
-            let bytes = encode(&r);
-            assert!(same(&decode(&bytes).expect("valid record"), &r));
+    fn round_trip_is_exact_up_to_a_full_report() {
+        for n in [5, 6, MAX_ESTIMATES] {
+            let r = report(n);
+            let back = decode(&encode(&r)).expect("valid record");
+            assert_eq!(bits(&back), bits(&r), "{n} estimates");
         }
     }
 
     #[test]
     fn erased_flash_holds_nothing() {
-        assert_eq!(decode(&[0xFF; STORED_LEN]), None);
-        assert_eq!(decode(&[0x00; STORED_LEN]), None);
-        assert_eq!(decode(&[]), None);
+        assert_eq!(decode(&[0xFF; STORED_LEN]), Err(NotStored::Empty));
+        assert_eq!(decode(&[0x00; STORED_LEN]), Err(NotStored::Empty));
+        assert_eq!(decode(&[]), Err(NotStored::Empty));
     }
 
     #[test]
     fn every_flipped_bit_is_caught() {
-        let good = encode(&report());
-        let used = HEADER + u16::from_le_bytes([good[6], good[7]]) as usize + 4;
+        let good = encode(&report(6));
+        let used = HEADER + u16::from_le_bytes([good[6], good[7]]) as usize + CRC_LEN;
         for byte in 0..used {
             for bit in 0..8 {
                 let mut bad = good;
                 bad[byte] ^= 1 << bit;
-                assert_eq!(
-                    decode(&bad),
-                    None,
+                assert!(
+                    decode(&bad).is_err(),
                     "flip of bit {bit} in byte {byte} accepted"
                 );
             }
@@ -123,20 +140,24 @@ mod tests {
     }
 
     #[test]
-    fn another_layout_version_is_not_read() {
-        let mut bytes = encode(&report());
-        bytes[4..6].copy_from_slice(&(STORE_VERSION + 1).to_le_bytes());
-        assert_eq!(decode(&bytes), None);
+    fn another_layout_version_is_named_and_not_read() {
+        let good = encode(&report(6));
+        for version in [STORE_VERSION - 1, STORE_VERSION + 1] {
+            assert_eq!(
+                decode(&relabelled(good, version)),
+                Err(NotStored::OtherLayout { found: version })
+            );
+        }
     }
 
     #[test]
     fn a_torn_write_is_not_read() {
-        let good = encode(&report());
-        let used = HEADER + u16::from_le_bytes([good[6], good[7]]) as usize + 4;
+        let good = encode(&report(6));
+        let used = HEADER + u16::from_le_bytes([good[6], good[7]]) as usize + CRC_LEN;
         for cut in 0..used {
             let mut torn = [0xFF; STORED_LEN];
             torn[..cut].copy_from_slice(&good[..cut]);
-            assert_eq!(decode(&torn), None, "write torn at {cut} accepted");
+            assert!(decode(&torn).is_err(), "write torn at {cut} accepted");
         }
     }
 }
