@@ -8,7 +8,7 @@ use crate::report::num;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
 use motor_id_shared::fit::identify::{Progress, Stage};
-use motor_id_shared::model::params::ParamId;
+use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
     BoardMessage, Estimate, HostMessage, JobStage, MotorReport, NotStored, Refusal, CHUNK,

@@ -79,7 +79,7 @@ pub fn apply_effect(p: &mut ModelParams, text: &str) -> Result<Effect> {
         let keys: Vec<&str> = effect
             .params()
             .iter()
-            .map(|id| Effect::short_key(*id))
+            .map(|id| id.short_key())
             .collect();
         bail!(
             "--effect {name}: give its parameters, e.g. {name}:{}=...",
@@ -91,12 +91,12 @@ pub fn apply_effect(p: &mut ModelParams, text: &str) -> Result<Effect> {
             .params()
             .iter()
             .copied()
-            .find(|id| Effect::short_key(*id) == k || id.name() == k)
+            .find(|id| id.short_key() == k || id.name() == k)
             .ok_or_else(|| {
                 let keys: Vec<&str> = effect
                     .params()
                     .iter()
-                    .map(|id| Effect::short_key(*id))
+                    .map(|id| id.short_key())
                     .collect();
                 anyhow!(
                     "--effect {name}: unknown key '{k}' (known: {})",

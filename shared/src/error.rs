@@ -1,6 +1,6 @@
 //! Typed, allocation-free errors of the identification core.
 
-use crate::model::param_id::ParamId;
+use crate::param_id::ParamId;
 use core::fmt;
 
 /// Why a parameter set, a record or an identification request was refused.

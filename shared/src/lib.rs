@@ -15,11 +15,13 @@ pub mod device;
 pub mod error;
 pub mod fit;
 pub mod model;
+pub mod param_id;
 pub mod rng;
 #[cfg(test)]
 pub(crate) mod testkit;
 pub mod wire;
 
 pub use error::Error;
-pub use model::params::{ModelParams, ParamId};
+pub use model::params::ModelParams;
+pub use param_id::ParamId;
 pub use model::record::Record;

@@ -16,7 +16,7 @@ pub const DEMO_FRICTION: f32 = 0.05;
 /// (which has no Coulomb friction) with [`DEMO_FRICTION`], which a real motor has and the
 /// commissioning coast-down is there to find.
 pub fn demo_motor() -> ModelParams {
-    ModelParams::SEED_MOTOR.with(crate::model::params::ParamId::Tc, DEMO_FRICTION)
+    ModelParams::SEED_MOTOR.with(crate::param_id::ParamId::Tc, DEMO_FRICTION)
 }
 
 /// A simulated motor sampled every `dt`.

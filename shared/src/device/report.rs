@@ -1,7 +1,7 @@
 //! The conversion of an identification into the report the board sends and stores.
 
 use crate::fit::identify::Identification;
-use crate::model::params::ParamId;
+use crate::param_id::ParamId;
 use crate::wire::protocol::{Estimate, MotorReport};
 
 /// Report of an identification in the message form: the five motor parameters, then every

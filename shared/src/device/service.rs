@@ -286,7 +286,7 @@ mod tests {
     use crate::device::commissioning::SAFETY_SAMPLES;
     use crate::device::plant::{SimulatedPlant, DEMO_FRICTION};
     use crate::model::params::ModelParams;
-    use crate::model::params::ParamId;
+    use crate::param_id::ParamId;
     use std::collections::VecDeque;
 
     /// A link whose incoming requests are queued, each released after `after` polls.

@@ -25,7 +25,8 @@ use crate::error::Error;
 use crate::fit::linalg::symmetric_eigen;
 use crate::fit::objective::{Cost, NormalEquations, Objective};
 use crate::fit::space::Space;
-use crate::model::params::{ModelParams, ParamId};
+use crate::model::params::ModelParams;
+use crate::param_id::ParamId;
 
 /// Largest standard deviation (in natural coordinates) of a pinned direction.
 pub const PINNED_STD: f64 = 0.1;

@@ -422,7 +422,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::params::ParamId;
+    use crate::param_id::ParamId;
     use crate::model::profile::Profile;
     use crate::model::synth::Noise;
     use crate::testkit::Owned;

@@ -20,7 +20,8 @@
 use crate::capacity::MAX_FREE;
 use crate::fit::linalg::{Mat, Vector};
 use crate::fit::space::ProblemSpec;
-use crate::model::params::{ModelParams, ParamId};
+use crate::model::params::ModelParams;
+use crate::param_id::ParamId;
 use crate::model::record::Record;
 use crate::model::sim::sign;
 
@@ -312,7 +313,7 @@ pub fn start(records: &[Record], spec: &ProblemSpec) -> Option<ModelParams> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::params::ParamId;
+    use crate::param_id::ParamId;
     use crate::model::profile::{Experiment, Profile};
     use crate::model::synth::Noise;
     use crate::testkit::Owned;

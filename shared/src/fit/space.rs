@@ -2,7 +2,8 @@
 //! the unit cube the optimisers work in and physical parameter values.
 
 use crate::error::Error;
-use crate::model::params::{ModelParams, ParamId, PARAM_COUNT};
+use crate::model::params::ModelParams;
+use crate::param_id::{ParamId, PARAM_COUNT};
 
 use crate::capacity::MAX_FREE;
 

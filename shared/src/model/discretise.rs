@@ -16,7 +16,8 @@
 //! Every parameter set with positive Ra, La, J, Kv and B >= 0 gives finite coefficients.
 
 use crate::error::Error;
-use crate::model::params::{ModelParams, ParamId};
+use crate::model::params::ModelParams;
+use crate::param_id::ParamId;
 
 /// 2x2 matrix, row major, f64.
 type M2 = [[f64; 2]; 2];

@@ -8,7 +8,6 @@
 
 pub mod discretise;
 pub mod effects;
-pub mod param_id;
 pub mod params;
 pub mod profile;
 pub mod record;

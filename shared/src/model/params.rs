@@ -2,8 +2,32 @@
 //! optional effects, with their validation.
 
 use crate::error::Error;
-pub use crate::model::param_id::{ParamId, PARAM_COUNT};
+use crate::param_id::{ParamId, ParamSpec, PARAM_COUNT};
 use serde::{Deserialize, Serialize};
+
+/// The five motor parameters of seed Eq. 1-5: units, seed Table 1 bounds, and the
+/// physical range (strictly positive; viscous friction may vanish).
+pub const MOTOR_SPECS: [ParamSpec; 5] = [
+    motor_spec(ParamId::Ra, "ra", "ohm", (0.5, 10.0)),
+    motor_spec(ParamId::La, "la", "H", (0.01, 2.0)),
+    motor_spec(ParamId::J, "j", "kg m^2", (0.001, 1.0)),
+    ParamSpec {
+        physical_range: (0.0, f32::MAX),
+        ..motor_spec(ParamId::B, "b", "N m s/rad", (0.0005, 1.0))
+    },
+    motor_spec(ParamId::Kv, "kv", "V s/rad", (0.01, 2.0)),
+];
+
+const fn motor_spec(id: ParamId, name: &'static str, unit: &'static str, table_1: (f32, f32)) -> ParamSpec {
+    ParamSpec {
+        id,
+        name,
+        key: name,
+        unit,
+        default_bounds: table_1,
+        physical_range: (f32::MIN_POSITIVE, f32::MAX),
+    }
+}
 
 /// A full parameter set: motor (seed Eq. 5) plus every effect. An effect whose parameter is
 /// zero is absent, so `ModelParams::motor(..)` is the seed's linear model.

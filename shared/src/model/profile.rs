@@ -2,7 +2,8 @@
 //! operating conditions of seed Section 6 (starting, load change, speed change) plus a
 //! reversal. Each is a pure function of time, so no buffer is needed.
 
-use crate::model::params::{ModelParams, ParamId};
+use crate::model::params::ModelParams;
+use crate::param_id::ParamId;
 
 /// The experiments of seed Section 6, plus a reversal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

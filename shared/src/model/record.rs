@@ -2,7 +2,8 @@
 //! from it: the initial state and a noise estimate.
 
 use crate::error::Error;
-use crate::model::params::{ModelParams, ParamId};
+use crate::model::params::ModelParams;
+use crate::param_id::ParamId;
 use crate::model::sim::{sign, InitialState, Simulator, StepInput};
 
 /// Fewest samples a record may hold.

@@ -11,7 +11,11 @@
 
 use crate::error::Error;
 use crate::model::discretise::Discrete;
-use crate::model::params::{ModelParams, ParamId};
+use crate::model::effects::{
+    armature_reaction, brush_drop, coulomb_friction, quadratic_load, sensor_delay, tacho_ripple,
+};
+use crate::model::params::ModelParams;
+use crate::param_id::ParamId;
 
 use crate::capacity::MAX_DELAY_SAMPLES;
 const RING: usize = MAX_DELAY_SAMPLES + 2;
@@ -94,23 +98,32 @@ pub(crate) fn sign(x: f32) -> f32 {
     }
 }
 
-/// A dead zone of size `threshold` on a state that may stick at zero (shaft speed under
-/// Coulomb friction, current under brush drop). Returns the opposing term to apply over the
-/// next step: `None` while the state stays stuck, else `threshold * direction`.
-fn dead_zone_opposition(value: f32, drive: f32, threshold: f32, stuck: &mut bool) -> Option<f32> {
+/// A dead zone on a state that may stick at zero (shaft speed under friction, current under
+/// brush drop), with `opposition(direction)` the opposing term of the effect's entry for a
+/// motion in `direction` (+1, -1; 0 gives 0). Returns the opposing term to apply over the
+/// next step: `None` while the state stays stuck (the drive within the opposition), else
+/// the opposition in the direction of motion (or, from rest, of the drive).
+#[inline(always)]
+fn dead_zone_opposition(
+    value: f32,
+    drive: f32,
+    opposition: impl Fn(f32) -> f32,
+    stuck: &mut bool,
+) -> Option<f32> {
     if *stuck {
-        if drive.abs() <= threshold {
+        let held = opposition(sign(drive));
+        if drive.abs() <= held.abs() {
             return None;
         }
         *stuck = false;
-        return Some(threshold * sign(drive));
+        return Some(held);
     }
     let direction = if value != 0.0 {
         sign(value)
     } else {
         sign(drive)
     };
-    Some(threshold * direction)
+    Some(opposition(direction))
 }
 
 /// After a step with an opposing dead-zone term: a state that crossed zero sticks there.
@@ -173,13 +186,8 @@ impl Simulator {
     pub fn new(p: &ModelParams, dt: f32, init: InitialState) -> Result<Simulator, Error> {
         p.validate()?;
         let disc = Discrete::new(p, dt)?;
-        let delay = p.get(ParamId::Td) / dt;
-        if delay > MAX_DELAY_SAMPLES as f32 {
-            return Err(Error::DelayTooLong);
-        }
-        // At most MAX_DELAY_SAMPLES (checked above), so it fits a ring position.
-        let delay_whole = libm::floorf(delay) as u8;
-        let delay_frac = delay - delay_whole as f32;
+        let (delay_whole, delay_frac) =
+            sensor_delay::in_samples(p.get(ParamId::Td), dt).ok_or(Error::DelayTooLong)?;
         let (tc, kq, kar, vb) = (
             p.get(ParamId::Tc),
             p.get(ParamId::Kq),
@@ -236,23 +244,9 @@ impl Simulator {
         self.push_reading();
     }
 
-    /// Flux factor of armature reaction, `1 - kar |i|`, kept above 0.1.
-    fn flux_factor(&self) -> f32 {
-        if self.kar == 0.0 {
-            1.0
-        } else {
-            (1.0 - self.kar * self.current.hi.abs()).max(0.1)
-        }
-    }
-
     #[inline(always)]
     fn tacho_now(&self) -> f32 {
-        let w = self.omega.hi;
-        if self.ripple_amp == 0.0 {
-            w
-        } else {
-            w * (1.0 + self.ripple_amp * libm::sinf(self.psi + self.ripple_phase))
-        }
+        tacho_ripple::reading(self.ripple_amp, self.ripple_phase, self.omega.hi, self.psi)
     }
 
     #[inline(always)]
@@ -285,7 +279,7 @@ impl Simulator {
             let whole = usize::from(self.delay_whole);
             let a = self.ring_back(whole);
             let b = self.ring_back(whole + 1);
-            a + self.delay_frac * (b - a)
+            sensor_delay::interpolate(a, b, self.delay_frac)
         };
         Reading {
             omega,
@@ -401,7 +395,8 @@ impl Simulator {
     #[inline(always)]
     fn step_friction(&mut self, v: f32, tl: f32) {
         let (i0, w0) = (self.current.hi, self.omega.hi);
-        // `tc sign(w0)` with w0 non-zero and not NaN (see `step_nonlinear`).
+        // `coulomb_friction::torque(tc, sign(w0))` with w0 non-zero and not NaN (see
+        // `step_nonlinear`), without the multiplication by +-1 (the same bits).
         let forward = w0 > 0.0;
         let friction = if forward { self.tc } else { -self.tc };
         let load = tl + friction;
@@ -425,18 +420,18 @@ impl Simulator {
     fn step_with_effects(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         let i0 = self.current.hi;
         let w0 = self.omega.hi;
-        let flux = self.flux_factor();
         // Armature reaction as held inputs: the linear part uses kv; the flux loss adds
         // back (1 - flux) kv w to the voltage and removes (1 - flux) kv i of torque.
-        let dkv = (1.0 - flux) * self.kv;
+        let dkv = armature_reaction::lost_constant(self.kar, self.kv, i0);
         let mut volts = v + dkv * w0;
-        let mut load = tl + dkv * i0 + self.kq * w0 * w0.abs();
+        let mut load = tl + dkv * i0 + quadratic_load::torque(self.kq, w0);
         let mut brush = 0.0;
         let mut friction = 0.0;
         let current_moves = if self.open {
             false
         } else if self.vb > 0.0 {
-            match dead_zone_opposition(i0, volts - self.kv * w0, self.vb, &mut self.current_stuck) {
+            let law = |direction| brush_drop::voltage(self.vb, direction);
+            match dead_zone_opposition(i0, volts - self.kv * w0, law, &mut self.current_stuck) {
                 Some(o) => {
                     brush = o;
                     true
@@ -447,7 +442,8 @@ impl Simulator {
             true
         };
         let shaft_moves = if self.tc > 0.0 {
-            match dead_zone_opposition(w0, self.kv * i0 - load, self.tc, &mut self.shaft_stuck) {
+            let law = |direction| coulomb_friction::torque(self.tc, direction);
+            match dead_zone_opposition(w0, self.kv * i0 - load, law, &mut self.shaft_stuck) {
                 Some(o) => {
                     friction = o;
                     true
@@ -473,9 +469,7 @@ impl Simulator {
         }
         if self.ripple_amp != 0.0 {
             let rate = measured_omega.unwrap_or(0.5 * (w0 + self.omega.hi));
-            let psi = self.psi + self.ripple_cycles * rate * self.dt;
-            // Wrapped so that f32 sin stays accurate on long records.
-            self.psi = libm::remainderf(psi, core::f32::consts::TAU);
+            self.psi = tacho_ripple::advance(self.psi, self.ripple_cycles, rate, self.dt);
         }
         self.push_reading();
     }

@@ -1,0 +1,295 @@
+//! The catalogue of unmodelled effects: one entry ([`EffectSpec`]) per effect, in a file of
+//! its own, holding the effect's stable name (`docs/CONTRACTS.md`), its physics, its
+//! parameters with units and ranges, the search bounds a fit gives them, its term in the
+//! model step, and the signature its absence leaves in a residual (for the diagnosis).
+//!
+//! Adding an effect: a file here with its entry and its step terms, its parameters appended
+//! to [`ParamId`], one line in [`Effect`] and [`CATALOGUE`], and the call of its terms in
+//! [`crate::model::sim`]. The compile-time checks below catch an entry that is missing or
+//! out of order.
+
+pub mod armature_reaction;
+pub mod brush_drop;
+pub mod coulomb_friction;
+pub mod quadratic_load;
+pub mod sensor_delay;
+pub mod tacho_ripple;
+
+use crate::model::params::{ModelParams, MOTOR_SPECS};
+use crate::param_id::{ParamId, ParamSpec, PARAM_COUNT};
+
+/// One effect that the linear model of seed Eq. 5 lacks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Effect {
+    /// [`coulomb_friction`].
+    CoulombFriction,
+    /// [`quadratic_load`].
+    QuadraticLoad,
+    /// [`armature_reaction`].
+    ArmatureReaction,
+    /// [`brush_drop`].
+    BrushDrop,
+    /// [`sensor_delay`].
+    SensorDelay,
+    /// [`tacho_ripple`].
+    TachoRipple,
+}
+
+/// The catalogue, in the order of [`Effect`].
+pub const CATALOGUE: [&EffectSpec; 6] = [
+    &coulomb_friction::SPEC,
+    &quadratic_load::SPEC,
+    &armature_reaction::SPEC,
+    &brush_drop::SPEC,
+    &sensor_delay::SPEC,
+    &tacho_ripple::SPEC,
+];
+
+/// Search bounds of an effect's parameters: `(parameter, lo, hi)`.
+pub type EffectBounds = heapless::Vec<(ParamId, f32, f32), 3>;
+
+/// One entry of the catalogue.
+#[derive(Clone, Copy, Debug)]
+pub struct EffectSpec {
+    /// Stable name (`docs/CONTRACTS.md`).
+    pub name: &'static str,
+    /// The physics, in one sentence.
+    pub physics: &'static str,
+    /// The parameters it adds; the first one switches the effect on (non-zero).
+    pub params: &'static [ParamSpec],
+    /// The same parameters' ids ([`ids`] of `params`).
+    pub ids: &'static [ParamId],
+    /// Search bounds of its parameters for motor `p` in an experiment of magnitudes `s`.
+    pub search_bounds: fn(p: &ModelParams, s: &Scales) -> EffectBounds,
+    /// The shape its absence leaves in the speed residual, if it has a simple one.
+    pub signature: Option<Signature>,
+}
+
+/// The shape of the speed residual (measured minus model) that an effect leaves when the
+/// model lacks it: the diagnosis correlates the residual with it.
+#[derive(Clone, Copy, Debug)]
+pub struct Signature {
+    /// What it looks like, in words ("minus sign of speed").
+    pub label: &'static str,
+    /// Its value at one sample.
+    pub at: fn(&SignatureSample) -> f64,
+}
+
+/// What a signature reads at one sample (f64: the diagnosis runs on the host).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SignatureSample {
+    /// Speed [rad/s].
+    pub omega: f64,
+    /// Acceleration [rad/s^2].
+    pub accel: f64,
+    /// Armature current [A].
+    pub current: f64,
+    /// Largest |speed| over the records [rad/s].
+    pub omega_max: f64,
+    /// Largest |current| over the records [A].
+    pub current_max: f64,
+}
+
+/// Magnitudes of an experiment that set the search range of effect parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scales {
+    /// Largest |armature voltage| [V].
+    pub v_max: f32,
+    /// Largest |speed| [rad/s].
+    pub omega_max: f32,
+    /// Largest |current| [A] (measured, or estimated as `v_max / Ra`).
+    pub current_max: f32,
+    /// Sample step [s] (the smallest over the records).
+    pub dt: f32,
+}
+
+impl Scales {
+    /// Stall torque `Kv v_max / Ra` of motor `p` (seed Eq. 1-4 at standstill): the scale of
+    /// the torque effects.
+    pub fn stall_torque(&self, p: &ModelParams) -> f32 {
+        p.get(ParamId::Kv) * self.v_max / p.get(ParamId::Ra)
+    }
+}
+
+/// The ids of an entry's parameters, in order.
+pub(crate) const fn ids<const N: usize>(specs: &[ParamSpec; N]) -> [ParamId; N] {
+    let mut out = [ParamId::Ra; N];
+    let mut k = 0;
+    while k < N {
+        out[k] = specs[k].id;
+        k += 1;
+    }
+    out
+}
+
+/// Bounds of one parameter (for an entry's `search_bounds`).
+pub(crate) fn one(id: ParamId, lo: f32, hi: f32) -> EffectBounds {
+    let mut out = EffectBounds::new();
+    let _ = out.push((id, lo, hi));
+    out
+}
+
+impl Effect {
+    /// The whole catalogue.
+    pub const ALL: [Effect; 6] = [
+        Effect::CoulombFriction,
+        Effect::QuadraticLoad,
+        Effect::ArmatureReaction,
+        Effect::BrushDrop,
+        Effect::SensorDelay,
+        Effect::TachoRipple,
+    ];
+
+    /// Its entry.
+    pub const fn spec(self) -> &'static EffectSpec {
+        CATALOGUE[self as usize]
+    }
+
+    /// Stable name (`docs/CONTRACTS.md`).
+    pub const fn name(self) -> &'static str {
+        self.spec().name
+    }
+
+    /// Parse a stable name.
+    pub fn from_name(name: &str) -> Option<Effect> {
+        Effect::ALL.iter().copied().find(|e| e.name() == name)
+    }
+
+    /// The parameters this effect adds. The first one switches the effect on (non-zero).
+    pub const fn params(self) -> &'static [ParamId] {
+        self.spec().ids
+    }
+
+    /// Search bounds of this effect's parameters for motor `p` in an experiment of `s`
+    /// (each entry says why its range), never empty (`hi > lo`).
+    pub fn bounds(self, p: &ModelParams, s: &Scales) -> EffectBounds {
+        let mut out = (self.spec().search_bounds)(p, s);
+        for b in out.iter_mut() {
+            b.2 = b.2.max(b.1 + f32::EPSILON);
+        }
+        out
+    }
+}
+
+/// Every parameter's spec, at its [`ParamId::index`]: the motor's, then each entry's.
+const SPECS: [ParamSpec; PARAM_COUNT] = {
+    let mut out = [MOTOR_SPECS[0]; PARAM_COUNT];
+    let mut filled = [false; PARAM_COUNT];
+    let mut k = 0;
+    while k < MOTOR_SPECS.len() {
+        out[MOTOR_SPECS[k].id as usize] = MOTOR_SPECS[k];
+        filled[MOTOR_SPECS[k].id as usize] = true;
+        k += 1;
+    }
+    let mut e = 0;
+    while e < CATALOGUE.len() {
+        let params = CATALOGUE[e].params;
+        let mut j = 0;
+        while j < params.len() {
+            let id = params[j].id as usize;
+            assert!(!filled[id], "a parameter belongs to two entries");
+            out[id] = params[j];
+            filled[id] = true;
+            j += 1;
+        }
+        e += 1;
+    }
+    let mut i = 0;
+    while i < PARAM_COUNT {
+        assert!(filled[i], "a parameter of ParamId has no spec");
+        i += 1;
+    }
+    out
+};
+
+// Effect and CATALOGUE list the entries in the same order.
+const _: () = {
+    let mut k = 0;
+    while k < Effect::ALL.len() {
+        assert!(Effect::ALL[k] as usize == k);
+        k += 1;
+    }
+};
+
+impl ParamId {
+    /// What the model knows of this parameter.
+    pub const fn spec(self) -> &'static ParamSpec {
+        &SPECS[self as usize]
+    }
+
+    /// Name on the command line and in JSON.
+    pub const fn name(self) -> &'static str {
+        self.spec().name
+    }
+
+    /// Parse a name as printed by [`ParamId::name`].
+    pub fn from_name(name: &str) -> Option<ParamId> {
+        ParamId::ALL.iter().copied().find(|p| p.name() == name)
+    }
+
+    /// Unit, as printed (empty for a ratio).
+    pub const fn unit(self) -> &'static str {
+        self.spec().unit
+    }
+
+    /// Seed Table 1 bounds for the motor parameters; for effect parameters a default search
+    /// range that a caller usually narrows to the motor at hand.
+    pub const fn default_bounds(self) -> (f32, f32) {
+        self.spec().default_bounds
+    }
+
+    /// Smallest and largest physically meaningful value (inclusive).
+    pub const fn physical_range(self) -> (f32, f32) {
+        self.spec().physical_range
+    }
+
+    /// The key of this parameter after `NAME:` on the command line
+    /// (`tacho_ripple:amp=0.02,cycles=8,phase=0`); the full name is accepted too.
+    pub const fn short_key(self) -> &'static str {
+        self.spec().key
+    }
+
+    /// The effect this parameter belongs to (`None` for the five motor parameters).
+    pub fn effect(self) -> Option<Effect> {
+        Effect::ALL.into_iter().find(|e| e.params().contains(&self))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_parameter_is_named_once_and_found_by_its_name() {
+        for id in ParamId::ALL {
+            assert_eq!(ParamId::from_name(id.name()), Some(id));
+            assert_eq!(id.spec().id, id);
+            assert_eq!(id.is_motor(), id.effect().is_none(), "{}", id.name());
+        }
+        for e in Effect::ALL {
+            assert_eq!(Effect::from_name(e.name()), Some(e));
+        }
+    }
+
+    #[test]
+    fn search_bounds_name_the_effects_own_parameters_in_its_physical_range() {
+        let p = ModelParams::SEED_MOTOR;
+        let s = Scales {
+            v_max: 50.0,
+            omega_max: 300.0,
+            current_max: 10.0,
+            dt: 1e-3,
+        };
+        for e in Effect::ALL {
+            let b = e.bounds(&p, &s);
+            let ids: std::vec::Vec<ParamId> = b.iter().map(|x| x.0).collect();
+            let own = e.params().to_vec();
+            assert_eq!(ids, own, "{}", e.name());
+            for (id, lo, hi) in b {
+                let (plo, phi) = id.physical_range();
+                assert!(plo <= lo && lo < hi && hi <= phi, "{}: {lo}..{hi}", id.name());
+            }
+        }
+    }
+}

@@ -1,0 +1,38 @@
+//! `quadratic_load`: a fan or pump load whose torque grows with the square of the speed,
+//! `kq w |w|`, added to the load of seed Eq. 4.
+
+use super::{one, EffectSpec, Signature};
+use crate::param_id::{ParamId, ParamSpec};
+
+/// Its parameters.
+const PARAMS: [ParamSpec; 1] = [ParamSpec {
+    id: ParamId::Kq,
+    name: "kq",
+    key: "kq",
+    unit: "N m s^2/rad^2",
+    default_bounds: (0.0, 1e-3),
+    physical_range: (0.0, f32::MAX),
+}];
+
+/// The entry.
+pub const SPEC: EffectSpec = EffectSpec {
+    name: "quadratic_load",
+    physics: "fan or pump load torque kq w |w|",
+    params: &PARAMS,
+    ids: &super::ids(&PARAMS),
+    // Up to a load that takes the whole stall torque at the top speed.
+    search_bounds: |p, s| {
+        let w = s.omega_max.max(1e-6);
+        one(ParamId::Kq, 0.0, s.stall_torque(p) / (w * w))
+    },
+    signature: Some(Signature {
+        label: "minus speed*|speed|",
+        at: |x| -x.omega * x.omega.abs(),
+    }),
+};
+
+/// Its load torque at speed `w`, held over a step.
+#[inline(always)]
+pub fn torque(kq: f32, w: f32) -> f32 {
+    kq * w * w.abs()
+}
