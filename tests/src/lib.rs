@@ -160,6 +160,7 @@ pub fn s(p: &Path) -> &str {
 /// Build the firmware (`firmware/`, its own workspace) in release with `args` (features),
 /// in `firmware/<target_dir>`; returns the ELF.
 pub fn build_firmware(args: &[&str], target_dir: &str) -> PathBuf {
+    require_flip_link();
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     // Cargo reads firmware/.cargo/config.toml (target, linker scripts) from there only.
@@ -183,6 +184,21 @@ pub fn build_firmware(args: &[&str], target_dir: &str) -> PathBuf {
         .join("thumbv7em-none-eabihf/release/motor-id-firmware");
     assert!(elf.exists(), "{} missing", elf.display());
     elf
+}
+
+/// The firmware links with flip-link (`firmware/.cargo/config.toml`): its absence is a
+/// failure in one line, not a linker error deep in cargo's output, and never a skip.
+fn require_flip_link() {
+    let found = Command::new("flip-link")
+        .arg("--help")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|status| status.success());
+    assert!(
+        found,
+        "flip-link is missing: the firmware links with it; install it with `cargo install flip-link --locked` (.ci/run does)"
+    );
 }
 
 /// The firmware's QEMU build (`--features qemu`, in its own target directory so that the
