@@ -76,11 +76,7 @@ pub fn apply_effect(p: &mut ModelParams, text: &str) -> Result<Effect> {
         )
     })?;
     if rest.trim().is_empty() {
-        let keys: Vec<&str> = effect
-            .params()
-            .iter()
-            .map(|id| id.short_key())
-            .collect();
+        let keys: Vec<&str> = effect.params().iter().map(|id| id.short_key()).collect();
         bail!(
             "--effect {name}: give its parameters, e.g. {name}:{}=...",
             keys.join("=...,")
@@ -93,11 +89,7 @@ pub fn apply_effect(p: &mut ModelParams, text: &str) -> Result<Effect> {
             .copied()
             .find(|id| id.short_key() == k || id.name() == k)
             .ok_or_else(|| {
-                let keys: Vec<&str> = effect
-                    .params()
-                    .iter()
-                    .map(|id| id.short_key())
-                    .collect();
+                let keys: Vec<&str> = effect.params().iter().map(|id| id.short_key()).collect();
                 anyhow!(
                     "--effect {name}: unknown key '{k}' (known: {})",
                     keys.join(", ")

@@ -11,11 +11,14 @@
 //! typed error ([`crate::Error::TooManyParameters`], [`crate::Error::InvalidConfig`],
 //! [`crate::Error::DelayTooLong`]).
 
+use crate::param_id::PARAM_COUNT;
+
 /// The host's capacities (`full` feature, and this crate's tests) rather than the board's.
 pub const FULL: bool = cfg!(any(test, feature = "full"));
 
-/// Largest number of free parameters (host: every effect; board: five and `tc`).
-pub const MAX_FREE: usize = if FULL { 12 } else { 6 };
+/// Largest number of free parameters (host: every parameter of the model; board: the five
+/// motor parameters and `tc`).
+pub const MAX_FREE: usize = if FULL { PARAM_COUNT } else { 6 };
 
 /// Largest FFO population (host: the seed's 4 x 25; board: the default pipeline's 2 x 8).
 pub const MAX_POPULATION: usize = if FULL { 100 } else { 16 };

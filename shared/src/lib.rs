@@ -23,5 +23,5 @@ pub mod wire;
 
 pub use error::Error;
 pub use model::params::ModelParams;
-pub use param_id::ParamId;
 pub use model::record::Record;
+pub use param_id::ParamId;

@@ -6,8 +6,8 @@ use crate::device::hardware::{Bridge, Drive, Link, Watchdog};
 use crate::device::job::{abort_requested, fail, JobEnd};
 use crate::device::record_store::RecordStore;
 use crate::fit::space::ProblemSpec;
-use crate::param_id::ParamId;
 use crate::model::profile::{Experiment, Profile};
+use crate::param_id::ParamId;
 use crate::wire::protocol::{BoardMessage, JobStage, Refusal};
 
 /// Limits of the commissioning experiment.

@@ -422,9 +422,9 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::param_id::ParamId;
     use crate::model::profile::Profile;
     use crate::model::synth::Noise;
+    use crate::param_id::ParamId;
     use crate::testkit::Owned;
 
     fn assert_within(p: &ModelParams, truth: &ModelParams, rel: f32) {

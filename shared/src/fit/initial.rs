@@ -21,9 +21,9 @@ use crate::capacity::MAX_FREE;
 use crate::fit::linalg::{Mat, Vector};
 use crate::fit::space::ProblemSpec;
 use crate::model::params::ModelParams;
-use crate::param_id::ParamId;
 use crate::model::record::Record;
 use crate::model::sim::sign;
+use crate::param_id::ParamId;
 
 /// A small least-squares problem (at most [`MAX_FREE`] unknowns) solved by a QR
 /// factorisation updated one row at a time with square-root-free Givens rotations
@@ -313,9 +313,9 @@ pub fn start(records: &[Record], spec: &ProblemSpec) -> Option<ModelParams> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::param_id::ParamId;
     use crate::model::profile::{Experiment, Profile};
     use crate::model::synth::Noise;
+    use crate::param_id::ParamId;
     use crate::testkit::Owned;
 
     #[test]

@@ -13,3 +13,4 @@ pub mod linalg;
 pub mod objective;
 pub mod refine;
 pub mod space;
+pub mod sums;

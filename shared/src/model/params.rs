@@ -18,7 +18,12 @@ pub const MOTOR_SPECS: [ParamSpec; 5] = [
     motor_spec(ParamId::Kv, "kv", "V s/rad", (0.01, 2.0)),
 ];
 
-const fn motor_spec(id: ParamId, name: &'static str, unit: &'static str, table_1: (f32, f32)) -> ParamSpec {
+const fn motor_spec(
+    id: ParamId,
+    name: &'static str,
+    unit: &'static str,
+    table_1: (f32, f32),
+) -> ParamSpec {
     ParamSpec {
         id,
         name,

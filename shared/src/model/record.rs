@@ -3,8 +3,8 @@
 
 use crate::error::Error;
 use crate::model::params::ModelParams;
-use crate::param_id::ParamId;
 use crate::model::sim::{sign, InitialState, Simulator, StepInput};
+use crate::param_id::ParamId;
 
 /// Fewest samples a record may hold.
 pub const MIN_SAMPLES: usize = 8;

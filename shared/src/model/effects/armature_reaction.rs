@@ -3,7 +3,7 @@
 //! (kept above a tenth). The linear step keeps `kv`; the loss enters as held inputs: the
 //! voltage gains back `(1 - flux) kv w` and the torque loses `(1 - flux) kv i`.
 
-use super::{one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -21,7 +21,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     name: "armature_reaction",
     physics: "flux falls with current: back-EMF and torque constant kv (1 - kar |i|)",
     params: &PARAMS,
-    ids: &super::ids(&PARAMS),
+    ids: &ids(&PARAMS),
     // Up to 50 % flux loss at the largest current.
     search_bounds: |_, s| one(ParamId::Kar, 0.0, 0.5 / s.current_max.max(1e-6)),
     signature: Some(Signature {

@@ -2,7 +2,7 @@
 //! seed Eq. 1; no current flows while the driving voltage `v - Kv w` stays within `vb` (the
 //! dead zone of [`crate::model::sim`] on the current).
 
-use super::{one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -20,7 +20,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     name: "brush_drop",
     physics: "constant brush voltage drop vb with the sign of the current; no current below it",
     params: &PARAMS,
-    ids: &super::ids(&PARAMS),
+    ids: &ids(&PARAMS),
     // Up to 30 % of the voltage.
     search_bounds: |_, s| one(ParamId::Vb, 0.0, 0.3 * s.v_max),
     signature: Some(Signature {

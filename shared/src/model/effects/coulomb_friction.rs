@@ -2,7 +2,7 @@
 //! to the load of seed Eq. 4, with stiction: a shaft at rest stays there while the drive
 //! torque `Kv i - tl` stays within `tc` (the dead zone of [`crate::model::sim`]).
 
-use super::{one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -20,7 +20,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     name: "coulomb_friction",
     physics: "constant friction torque tc sign(w) against the motion; at rest the shaft sticks while the drive torque stays within tc",
     params: &PARAMS,
-    ids: &super::ids(&PARAMS),
+    ids: &ids(&PARAMS),
     // Up to half the stall torque.
     search_bounds: |p, s| one(ParamId::Tc, 0.0, 0.5 * s.stall_torque(p)),
     // The model lacks a torque against the motion: the measured speed falls short of it by

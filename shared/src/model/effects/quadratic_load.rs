@@ -1,7 +1,7 @@
 //! `quadratic_load`: a fan or pump load whose torque grows with the square of the speed,
 //! `kq w |w|`, added to the load of seed Eq. 4.
 
-use super::{one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -19,7 +19,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     name: "quadratic_load",
     physics: "fan or pump load torque kq w |w|",
     params: &PARAMS,
-    ids: &super::ids(&PARAMS),
+    ids: &ids(&PARAMS),
     // Up to a load that takes the whole stall torque at the top speed.
     search_bounds: |p, s| {
         let w = s.omega_max.max(1e-6);

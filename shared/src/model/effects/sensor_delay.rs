@@ -2,7 +2,7 @@
 //! converter's conversion time); the simulator reads it from a delay line, interpolating
 //! between samples.
 
-use super::{one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Signature};
 use crate::capacity::MAX_DELAY_SAMPLES;
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -21,7 +21,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     name: "sensor_delay",
     physics: "the tacho reading lags the shaft by td",
     params: &PARAMS,
-    ids: &super::ids(&PARAMS),
+    ids: &ids(&PARAMS),
     // Up to what the simulator's delay line holds.
     search_bounds: |_, s| one(ParamId::Td, 0.0, MAX_DELAY_SAMPLES as f32 * s.dt),
     // A lagging reading is the speed a moment ago: w(t - td) - w(t) ~ -td dw/dt.

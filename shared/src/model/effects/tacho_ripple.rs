@@ -3,7 +3,7 @@
 //! `w (1 + ripple_amp sin(ripple_cycles theta + ripple_phase))`. The angle follows the
 //! measured speed when a fit gives it (see [`crate::model::sim::Simulator::apply`]).
 
-use super::{EffectBounds, EffectSpec};
+use super::entry::{ids, EffectBounds, EffectSpec};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -39,7 +39,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     name: "tacho_ripple",
     physics: "tacho reading modulated with rotor angle: w (1 + amp sin(cycles theta + phase))",
     params: &PARAMS,
-    ids: &super::ids(&PARAMS),
+    ids: &ids(&PARAMS),
     // Up to 20 % at 1 to 64 cycles per revolution.
     search_bounds: |_, _| {
         let mut out = EffectBounds::new();

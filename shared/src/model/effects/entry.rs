@@ -1,0 +1,89 @@
+//! The shape of a catalogue entry: what one effect tells the model, the fit and the
+//! diagnosis about itself.
+
+use crate::model::params::ModelParams;
+use crate::param_id::{ParamId, ParamSpec};
+
+/// Search bounds of an effect's parameters: `(parameter, lo, hi)`.
+pub type EffectBounds = heapless::Vec<(ParamId, f32, f32), 3>;
+
+/// One entry of the catalogue.
+#[derive(Clone, Copy, Debug)]
+pub struct EffectSpec {
+    /// Stable name (`docs/CONTRACTS.md`).
+    pub name: &'static str,
+    /// The physics, in one sentence.
+    pub physics: &'static str,
+    /// The parameters it adds; the first one switches the effect on (non-zero).
+    pub params: &'static [ParamSpec],
+    /// The same parameters' ids ([`ids`] of `params`).
+    pub ids: &'static [ParamId],
+    /// Search bounds of its parameters for motor `p` in an experiment of magnitudes `s`.
+    pub search_bounds: fn(p: &ModelParams, s: &Scales) -> EffectBounds,
+    /// The shape its absence leaves in the speed residual, if it has a simple one.
+    pub signature: Option<Signature>,
+}
+
+/// The shape of the speed residual (measured minus model) that an effect leaves when the
+/// model lacks it: the diagnosis correlates the residual with it.
+#[derive(Clone, Copy, Debug)]
+pub struct Signature {
+    /// What it looks like, in words ("minus sign of speed").
+    pub label: &'static str,
+    /// Its value at one sample.
+    pub at: fn(&SignatureSample) -> f64,
+}
+
+/// What a signature reads at one sample (f64: the diagnosis runs on the host).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SignatureSample {
+    /// Speed [rad/s].
+    pub omega: f64,
+    /// Acceleration [rad/s^2].
+    pub accel: f64,
+    /// Armature current [A].
+    pub current: f64,
+    /// Largest |speed| over the records [rad/s].
+    pub omega_max: f64,
+    /// Largest |current| over the records [A].
+    pub current_max: f64,
+}
+
+/// Magnitudes of an experiment that set the search range of effect parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scales {
+    /// Largest |armature voltage| [V].
+    pub v_max: f32,
+    /// Largest |speed| [rad/s].
+    pub omega_max: f32,
+    /// Largest |current| [A] (measured, or estimated as `v_max / Ra`).
+    pub current_max: f32,
+    /// Sample step [s] (the smallest over the records).
+    pub dt: f32,
+}
+
+impl Scales {
+    /// Stall torque `Kv v_max / Ra` of motor `p` (seed Eq. 1-4 at standstill): the scale of
+    /// the torque effects.
+    pub fn stall_torque(&self, p: &ModelParams) -> f32 {
+        p.get(ParamId::Kv) * self.v_max / p.get(ParamId::Ra)
+    }
+}
+
+/// The ids of an entry's parameters, in order.
+pub(crate) const fn ids<const N: usize>(specs: &[ParamSpec; N]) -> [ParamId; N] {
+    let mut out = [ParamId::Ra; N];
+    let mut k = 0;
+    while k < N {
+        out[k] = specs[k].id;
+        k += 1;
+    }
+    out
+}
+
+/// Bounds of one parameter (for an entry's `search_bounds`).
+pub(crate) fn one(id: ParamId, lo: f32, hi: f32) -> EffectBounds {
+    let mut out = EffectBounds::new();
+    let _ = out.push((id, lo, hi));
+    out
+}
