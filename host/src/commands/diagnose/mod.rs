@@ -4,9 +4,9 @@
 mod regimes;
 mod verdict;
 
-use crate::cli::FitOptions;
 use crate::csvio::OwnedRecord;
-use crate::identify_cmd::{fit_from, write_json, Fit};
+use crate::fit::{fit_from, Fit, FitOptions};
+use crate::output::write_json;
 use crate::plot::{draw, Panel, Series};
 use crate::report::num;
 use anyhow::{anyhow, bail, Result};

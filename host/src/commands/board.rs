@@ -2,7 +2,8 @@
 //! board (or its QEMU build) over a serial port with the frames of `motor_id_shared::frame`.
 
 use crate::csvio::OwnedRecord;
-use crate::identify_cmd::{write_json, PipelineArg};
+use crate::fit::PipelineArg;
+use crate::output::write_json;
 use crate::progress::FitProgress;
 use crate::report::num;
 use anyhow::{anyhow, bail, Context, Result};
