@@ -5,7 +5,7 @@ use crate::csvio::OwnedRecord;
 use crate::fit::PipelineArg;
 use crate::output::write_json;
 use crate::progress::FitProgress;
-use crate::report::num;
+use crate::report::{ByParam, Num, ParamEstimate};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
 use motor_id_shared::frame::{encode, Decoder, MAX_FRAME};
@@ -14,7 +14,7 @@ use motor_id_shared::params::ParamId;
 use motor_id_shared::protocol::{
     BoardMessage, HostMessage, JobStage, MotorReport, Refusal, CHUNK, PROTOCOL_VERSION,
 };
-use serde_json::{json, Map, Value};
+use serde::Serialize;
 use std::io::{Read, Write};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -215,52 +215,68 @@ fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
     out
 }
 
-fn report_json(r: &MotorReport) -> Value {
-    let mut params = Map::new();
-    let mut ident = Map::new();
-    for (k, id) in ParamId::MOTOR.iter().enumerate() {
-        params.insert(id.name().into(), num(r.params[k]));
-        let std = r.std[k];
-        ident.insert(
-            id.name().into(),
-            json!({ "value": num(r.params[k]), "pinned": std.is_finite(), "std": num(std) }),
-        );
-    }
-    if let Some(f) = r.friction {
-        let name = ParamId::Tc.name();
-        params.insert(name.into(), num(f.value));
-        ident.insert(
-            name.into(),
-            json!({ "value": num(f.value), "pinned": f.std.is_finite(), "std": num(f.std) }),
-        );
-    }
-    json!({
-        "params": params,
-        "rmse_omega": num(r.rmse_omega),
-        "evaluations": r.evaluations,
-        "identifiability": { "rank": r.rank, "free": ident.len(), "parameters": ident },
-    })
+/// What `board` reports of a motor: the `identify` report's fields that a board sends.
+#[derive(Serialize, Debug)]
+struct BoardReport {
+    /// Motor parameters, and Coulomb friction when the board identified it.
+    params: ByParam<Num>,
+    /// Speed RMSE [rad/s].
+    rmse_omega: Num,
+    /// Model evaluations.
+    evaluations: u32,
+    /// What the data pins.
+    identifiability: BoardIdentifiability,
 }
 
-fn print_report(r: &MotorReport) {
-    let line = |name: &str, value: f32, std: f32| {
-        let std = if std.is_finite() {
-            format!("+- {std:.3e}")
-        } else {
-            "NOT pinned".into()
-        };
-        println!("  {name:<3} = {value:<14} {std}");
-    };
-    for (k, id) in ParamId::MOTOR.iter().enumerate() {
-        line(id.name(), r.params[k], r.std[k]);
+/// The board's identifiability: rank and each parameter's estimate.
+#[derive(Serialize, Debug)]
+struct BoardIdentifiability {
+    /// Directions the data pins.
+    rank: u8,
+    /// Parameters identified.
+    free: usize,
+    /// Every parameter's estimate.
+    parameters: ByParam<ParamEstimate>,
+}
+
+impl BoardReport {
+    fn new(r: &MotorReport) -> BoardReport {
+        let motor = ParamId::MOTOR
+            .into_iter()
+            .zip(r.params.iter().zip(&r.std))
+            .map(|(id, (&value, &std))| (id, ParamEstimate::with_std(value, std)));
+        let friction = r
+            .friction
+            .map(|f| (ParamId::Tc, ParamEstimate::with_std(f.value, f.std)));
+        let parameters: ByParam<ParamEstimate> = motor.chain(friction).collect();
+        BoardReport {
+            params: parameters.iter().map(|(id, e)| (*id, e.value)).collect(),
+            rmse_omega: Num(r.rmse_omega),
+            evaluations: r.evaluations,
+            identifiability: BoardIdentifiability {
+                rank: r.rank,
+                free: parameters.0.len(),
+                parameters,
+            },
+        }
     }
-    if let Some(f) = r.friction {
-        line(ParamId::Tc.name(), f.value, f.std);
+
+    /// The text printed on stdout.
+    fn text(&self) -> String {
+        let mut s = String::new();
+        for (id, e) in self.identifiability.parameters.iter() {
+            let std = match e.std {
+                Some(Num(std)) if e.pinned => format!("+- {std:.3e}"),
+                _ => "NOT pinned".into(),
+            };
+            s += &format!("  {:<3} = {:<14} {std}\n", id.name(), e.value.0);
+        }
+        s += &format!(
+            "rmse_omega = {} rad/s, {} evaluations, rank {}\n",
+            self.rmse_omega.0, self.evaluations, self.identifiability.rank
+        );
+        s
     }
-    println!(
-        "rmse_omega = {} rad/s, {} evaluations, rank {}",
-        r.rmse_omega, r.evaluations, r.rank
-    );
 }
 
 /// Run `board`.
@@ -344,9 +360,61 @@ pub fn run(a: &BoardArgs) -> Result<()> {
             return Ok(());
         }
     };
-    print_report(&report);
+    let report = BoardReport::new(&report);
+    print!("{}", report.text());
     if let Some(path) = &a.json {
-        write_json(path, &report_json(&report))?;
+        write_json(path, &report)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use motor_id_shared::protocol::Estimate;
+
+    fn motor(friction: Option<Estimate>) -> MotorReport {
+        MotorReport {
+            params: [3.412, 0.0573, 0.0424, 0.00267, 0.1604],
+            std: [0.01, f32::NAN, 1e-4, 2e-5, 3e-4],
+            friction,
+            rmse_omega: 0.25,
+            evaluations: 31,
+            rank: 4,
+        }
+    }
+
+    #[test]
+    fn text_and_json_read_the_same_estimates() {
+        let friction = Estimate {
+            value: 0.1,
+            std: 0.002,
+        };
+        let report = BoardReport::new(&motor(Some(friction)));
+        let text = report.text();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 7);
+        assert_eq!(lines[0], "  ra  = 3.412          +- 1.000e-2");
+        assert_eq!(lines[1], "  la  = 0.0573         NOT pinned");
+        assert_eq!(lines[5], "  tc  = 0.1            +- 2.000e-3");
+        assert_eq!(lines[6], "rmse_omega = 0.25 rad/s, 31 evaluations, rank 4");
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(json["params"]["tc"], 0.1);
+        assert_eq!(json["identifiability"]["free"], 6);
+        assert_eq!(
+            json["identifiability"]["parameters"]["la"]["std"],
+            serde_json::Value::Null
+        );
+        assert_eq!(json["identifiability"]["parameters"]["la"]["pinned"], false);
+        assert_eq!(json["identifiability"]["parameters"]["tc"]["std"], 0.002);
+    }
+
+    #[test]
+    fn without_friction_no_tc() {
+        let report = BoardReport::new(&motor(None));
+        assert_eq!(report.text().lines().count(), 6);
+        let json = serde_json::to_value(&report).unwrap();
+        assert!(json["params"].get("tc").is_none());
+        assert_eq!(json["identifiability"]["free"], 5);
+    }
 }

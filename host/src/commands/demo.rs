@@ -4,7 +4,8 @@
 use crate::fit::{fit, FitOptions};
 use crate::fit_plot::plot_fit;
 use crate::output::write_json;
-use crate::report::{identify_json, summary};
+use crate::report::identify::IdentifyReport;
+use crate::report::summary::summary;
 use crate::simulation::{simulate, SimulateArgs};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -75,10 +76,9 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         );
         let json = a.out_dir.join(format!("{stem}.json"));
         let names = vec![csv.display().to_string()];
-        write_json(
-            &json,
-            &identify_json(&f.result, &f.spec, &names, a.seed, Pipeline::Default.name()),
-        )?;
+        let report =
+            IdentifyReport::new(&f.result, &f.spec, names, a.seed, Pipeline::Default.name());
+        write_json(&json, &report)?;
         let png = a.out_dir.join(format!("{stem}.png"));
         plot_fit(&png, &records, &f)?;
         println!("report {} and plot {}", json.display(), png.display());

@@ -5,7 +5,8 @@ use crate::csvio::OwnedRecord;
 use crate::fit::{fit, FitOptions, PipelineArg};
 use crate::fit_plot::plot_fit;
 use crate::output::write_json;
-use crate::report::{identify_json, summary};
+use crate::report::identify::IdentifyReport;
+use crate::report::summary::summary;
 use anyhow::Result;
 use clap::Args;
 use motor_id_shared::identify::Pipeline;
@@ -54,10 +55,10 @@ pub fn run(a: &IdentifyArgs) -> Result<()> {
     let f = fit(&records, &a.fit, pipeline)?;
     let samples: usize = records.iter().map(|r| r.len()).sum();
     print!("{}", summary(&f.result, &f.spec, samples, f.with_current));
-    let names: Vec<String> = records.iter().map(|r| r.name()).collect();
     if let Some(path) = &a.json {
-        let json = identify_json(&f.result, &f.spec, &names, a.fit.seed, pipeline.name());
-        write_json(path, &json)?;
+        let names = records.iter().map(|r| r.name()).collect();
+        let report = IdentifyReport::new(&f.result, &f.spec, names, a.fit.seed, pipeline.name());
+        write_json(path, &report)?;
     }
     if let Some(path) = &a.plot {
         plot_fit(path, &records, &f)?;

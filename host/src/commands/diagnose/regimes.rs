@@ -2,7 +2,7 @@
 //! correlation with the signatures of the catalogued effects, and its order spectrum (a
 //! peak at a fixed number of cycles per revolution scales with speed: the tacho).
 
-use serde_json::{json, Value};
+use serde::Serialize;
 
 /// One record's baseline residual and what the model says about its operating point.
 pub struct Trace {
@@ -212,9 +212,79 @@ pub fn order_peak(traces: &[Trace]) -> OrderPeak {
     best
 }
 
-/// The `where` report.
+/// The `where` report: how the baseline's misfit spreads over regimes and records, and what
+/// it resembles.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct WhereReport {
+    /// Baseline speed RMSE over all records [rad/s].
+    pub rmse: f64,
+    /// Measured speed noise of the training records [rad/s].
+    pub noise: f64,
+    /// Regimes, the most over-represented in the misfit first.
+    pub regimes: Vec<RegimeShare>,
+    /// Each record's share.
+    pub records: Vec<RecordShare>,
+    /// Effects' signatures, the best correlated first.
+    pub signatures: Vec<SignatureMatch>,
+    /// The residual's strongest ripple against rotor angle.
+    pub spectrum: Spectrum,
+    /// The findings in words.
+    pub summary: Vec<String>,
+}
+
+/// One regime's share of the misfit.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct RegimeShare {
+    /// Name.
+    pub name: &'static str,
+    /// Short name (plot label).
+    pub short: &'static str,
+    /// Share of the squared residual.
+    pub share_of_misfit: f64,
+    /// Share of the samples.
+    pub share_of_samples: f64,
+    /// RMSE within it [rad/s].
+    pub rmse: f64,
+}
+
+/// One record's share of the misfit.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct RecordShare {
+    /// File name.
+    pub file: String,
+    /// "train" or "holdout".
+    pub set: &'static str,
+    /// Share of the squared residual.
+    pub share_of_misfit: f64,
+    /// RMSE of the record [rad/s].
+    pub rmse: f64,
+}
+
+/// How well the residual follows an effect's signature.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct SignatureMatch {
+    /// The signature.
+    pub signature: &'static str,
+    /// The effect it belongs to.
+    pub points_to: &'static str,
+    /// Pearson correlation with the residual.
+    pub correlation: f64,
+}
+
+/// The order spectrum's peak.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct Spectrum {
+    /// Cycles per revolution.
+    pub order_cycles_per_rev: u32,
+    /// Share of the residual's energy it explains.
+    pub share_of_residual: f64,
+    /// The effect a ripple points to.
+    pub points_to: &'static str,
+}
+
+/// Where the baseline misfits `traces`, with `noise` the measured speed noise.
 #[allow(clippy::needless_range_loop)] // one index over five parallel per-sample series
-pub fn analyse(traces: &[Trace], noise: f32) -> Value {
+pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
     let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
     let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
     let accels: Vec<Vec<f32>> = traces.iter().map(|t| derivative(&t.omega, t.dt)).collect();
@@ -223,7 +293,7 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
     let mut samples = 0usize;
     let mut regime_sse = [0.0f64; REGIMES.len()];
     let mut regime_n = [0usize; REGIMES.len()];
-    // Signatures: what the residual of each effect looks like (DESIGN.md catalogue).
+    // Signatures: what the residual of each effect looks like (docs/CONTRACTS.md catalogue).
     let names = [
         ("minus acceleration", "sensor_delay"),
         ("minus sign of speed", "coulomb_friction"),
@@ -267,7 +337,7 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
     }
     let total = total.max(f64::MIN_POSITIVE);
     let n = samples.max(1) as f64;
-    let mut regimes: Vec<Value> = Vec::new();
+    let mut regimes: Vec<RegimeShare> = Vec::new();
     let mut ranked: Vec<(f64, String)> = Vec::new();
     for (i, reg) in REGIMES.iter().enumerate() {
         if regime_n[i] == 0 {
@@ -276,13 +346,13 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
         let share = regime_sse[i] / total;
         let sample_share = regime_n[i] as f64 / n;
         let rmse = (regime_sse[i] / regime_n[i] as f64).sqrt();
-        regimes.push(json!({
-            "name": reg.name,
-            "short": reg.short,
-            "share_of_misfit": round(share),
-            "share_of_samples": round(sample_share),
-            "rmse": round(rmse),
-        }));
+        regimes.push(RegimeShare {
+            name: reg.name,
+            short: reg.short,
+            share_of_misfit: round(share),
+            share_of_samples: round(sample_share),
+            rmse: round(rmse),
+        });
         ranked.push((
             share / sample_share,
             format!(
@@ -295,34 +365,32 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
         ));
     }
     regimes.sort_by(|a, b| {
-        let c = |v: &Value| {
-            v["share_of_misfit"].as_f64().unwrap_or(0.0)
-                / v["share_of_samples"].as_f64().unwrap_or(1.0)
-        };
+        let c = |r: &RegimeShare| r.share_of_misfit / r.share_of_samples;
         c(b).total_cmp(&c(a))
     });
     ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let per_record: Vec<Value> = records
-        .iter()
-        .map(|(name, set, sse, len)| {
-            json!({
-                "file": name, "set": set,
-                "share_of_misfit": round(sse / total),
-                "rmse": round((sse / *len.max(&1) as f64).sqrt()),
-            })
+    let per_record: Vec<RecordShare> = records
+        .into_iter()
+        .map(|(file, set, sse, len)| RecordShare {
+            file,
+            set,
+            share_of_misfit: round(sse / total),
+            rmse: round((sse / len.max(1) as f64).sqrt()),
         })
         .collect();
     // Ranked by correlation with its sign: a signature points at its effect only when the
     // residual follows it (a negative correlation is the opposite of that effect).
-    let mut signatures: Vec<(f64, Value)> = names
+    let mut signatures: Vec<(f64, SignatureMatch)> = names
         .iter()
         .zip(&sig)
-        .map(|((name, effect), s)| {
+        .map(|(&(signature, points_to), s)| {
             let c = correlation(&res_all, s);
-            (
-                c,
-                json!({ "signature": name, "points_to": effect, "correlation": round(c) }),
-            )
+            let m = SignatureMatch {
+                signature,
+                points_to,
+                correlation: round(c),
+            };
+            (c, m)
         })
         .collect();
     signatures.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -337,13 +405,11 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
     if rmse <= 1.05 * noise as f64 {
         summary.insert(0, format!("the baseline fits to the noise ({rmse:.3} vs {noise:.3} rad/s): no misfit to locate"));
     }
-    if let Some((c, v)) = signatures.first() {
+    if let Some((c, m)) = signatures.first() {
         if *c > 0.3 {
             summary.push(format!(
                 "the residual follows {} (correlation {:.2}), the signature of {}",
-                v["signature"].as_str().unwrap_or(""),
-                v["correlation"].as_f64().unwrap_or(0.0),
-                v["points_to"].as_str().unwrap_or("")
+                m.signature, m.correlation, m.points_to
             ));
         }
     }
@@ -353,15 +419,19 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
             100.0 * share
         ));
     }
-    json!({
-        "rmse": round(rmse),
-        "noise": round(noise as f64),
-        "regimes": regimes,
-        "records": per_record,
-        "signatures": signatures.into_iter().map(|(_, v)| v).collect::<Vec<_>>(),
-        "spectrum": { "order_cycles_per_rev": order, "share_of_residual": round(share), "points_to": "tacho_ripple" },
-        "summary": summary,
-    })
+    WhereReport {
+        rmse: round(rmse),
+        noise: round(noise as f64),
+        regimes,
+        records: per_record,
+        signatures: signatures.into_iter().map(|(_, m)| m).collect(),
+        spectrum: Spectrum {
+            order_cycles_per_rev: order,
+            share_of_residual: round(share),
+            points_to: "tacho_ripple",
+        },
+        summary,
+    }
 }
 
 fn round(x: f64) -> f64 {
