@@ -2,7 +2,6 @@
 //! records with the quantities measured on them, a fitted model scored on both sets, and the
 //! conclusions the records cannot support.
 
-use super::regimes::Trace;
 use super::verdict::Candidate;
 use crate::csvio::OwnedRecord;
 use crate::fit::Fit;
@@ -10,6 +9,27 @@ use anyhow::{anyhow, Result};
 use motor_id_shared::effects::{Effect, Scales};
 use motor_id_shared::objective::Objective;
 use motor_id_shared::{ModelParams, ParamId};
+
+/// One record's baseline residual and what the model says about its operating point.
+pub struct Trace {
+    /// File name.
+    pub name: String,
+    /// "train" or "holdout".
+    pub set: &'static str,
+    /// Sample step [s].
+    pub dt: f32,
+    /// measured - baseline speed [rad/s].
+    pub residual: Vec<f32>,
+    /// Baseline simulated speed [rad/s].
+    pub omega: Vec<f32>,
+    /// Armature current [A] (measured, else simulated).
+    pub current: Vec<f32>,
+}
+
+/// Largest magnitude of `x` (0 when empty).
+pub fn peak(x: &[f32]) -> f32 {
+    x.iter().fold(0.0f32, |m, v| m.max(v.abs()))
+}
 
 /// The training and held-out records.
 pub struct Data {
@@ -64,7 +84,6 @@ impl Data {
     /// The records' scales, with `p`'s resistance for the current when none was measured.
     pub fn scales(&self, p: &ModelParams) -> Scales {
         let all = self.train.iter().chain(&self.holdout);
-        let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
         let v_max = all.clone().map(|r| peak(&r.v)).fold(0.0, f32::max);
         let omega_max = all.clone().map(|r| peak(&r.omega)).fold(0.0, f32::max);
         let measured = all
@@ -128,21 +147,16 @@ impl Data {
         chosen: Option<&(Effect, Scored)>,
     ) -> Vec<String> {
         let mut out = Vec::new();
-        let unpinned = |s: &Scored| -> Vec<&'static str> {
-            s.fit
-                .result
-                .identifiability
-                .params
-                .iter()
-                .filter(|c| !c.pinned)
-                .map(|c| c.id.name())
-                .collect()
+        let unpinned = |s: &Scored| -> Vec<ParamId> {
+            let params = s.fit.result.identifiability.params.iter();
+            params.filter(|c| !c.pinned).map(|c| c.id).collect()
         };
+        let names = |ids: &[ParamId]| ids.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ");
         let base = unpinned(baseline);
         if !base.is_empty() {
             out.push(format!(
                 "the baseline does not pin {}: how they move when an effect is added says nothing",
-                base.join(", ")
+                names(&base)
             ));
         }
         if !self.with_current {
@@ -166,15 +180,15 @@ impl Data {
             );
         }
         if let Some((e, s)) = chosen {
-            let not: Vec<&str> = unpinned(s)
+            let not: Vec<ParamId> = unpinned(s)
                 .into_iter()
-                .filter(|n| e.params().iter().any(|p| p.name() == *n))
+                .filter(|id| e.params().contains(id))
                 .collect();
             if !not.is_empty() {
                 out.push(format!(
                     "{} improves the fit, but its parameter(s) {} are not pinned",
                     e.name(),
-                    not.join(", ")
+                    names(&not)
                 ));
             }
         }

@@ -2,14 +2,16 @@
 //! the misfit shrinks once it is modelled — judged on held-out records the fit never saw.
 //!
 //! This module holds the arguments and runs the steps: [`search`] fits the baseline and the
-//! catalogue's effects on the records of [`data`] (where the baseline misfits: [`regimes`];
-//! whether an effect is real: [`verdict`]), [`report`] says what was found, [`plot`] draws it.
+//! catalogue's effects on the records of [`data`] (where the baseline misfits: [`regimes`]
+//! and [`spectrum`]; whether an effect is real: [`verdict`]), [`report`] says what was
+//! found, [`plot`] draws it.
 
 mod data;
 mod plot;
 mod regimes;
 mod report;
 mod search;
+mod spectrum;
 mod verdict;
 
 use crate::csvio::OwnedRecord;

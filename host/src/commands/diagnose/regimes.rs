@@ -1,24 +1,10 @@
 //! Where the baseline misfits: the residual's share by operating regime and record, its
-//! correlation with the signatures of the catalogued effects, and its order spectrum (a
-//! peak at a fixed number of cycles per revolution scales with speed: the tacho).
+//! correlation with the signatures of the catalogued effects, and the peak of its order
+//! spectrum ([`super::spectrum`]).
 
+use super::data::{peak, Trace};
+use super::spectrum::{order_peak, OrderPeak};
 use serde::Serialize;
-
-/// One record's baseline residual and what the model says about its operating point.
-pub struct Trace {
-    /// File name.
-    pub name: String,
-    /// "train" or "holdout".
-    pub set: &'static str,
-    /// Sample step [s].
-    pub dt: f32,
-    /// measured - baseline speed [rad/s].
-    pub residual: Vec<f32>,
-    /// Baseline simulated speed [rad/s].
-    pub omega: Vec<f32>,
-    /// Armature current [A] (measured, else simulated).
-    pub current: Vec<f32>,
-}
 
 /// A class of samples.
 struct Regime {
@@ -95,10 +81,6 @@ const REGIMES: [Regime; 11] = [
     },
 ];
 
-fn peak(x: &[f32]) -> f32 {
-    x.iter().fold(0.0f32, |m, v| m.max(v.abs()))
-}
-
 /// Central-difference derivative.
 fn derivative(x: &[f32], dt: f32) -> Vec<f32> {
     let n = x.len();
@@ -132,84 +114,6 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
     } else {
         sab / (saa * sbb).sqrt()
     }
-}
-
-/// The strongest ripple of the residual against rotor angle.
-#[derive(Clone, Copy, Debug)]
-pub struct OrderPeak {
-    /// Cycles per revolution.
-    pub order: u32,
-    /// Share of the residual's energy it explains.
-    pub share: f64,
-    /// Relative amplitude of `w * amp * sin(order * theta + phase)`.
-    pub amp: f64,
-    /// Phase [rad], in [0, 2 pi).
-    pub phase: f64,
-}
-
-/// Order spectrum of the residual against rotor angle (integrated baseline speed): for each
-/// order in 1..=64 cycles per revolution, the least-squares fit of
-/// `r = w (a sin + b cos)(order theta)` (the tacho ripple's signature); the order that
-/// explains most of the residual's energy.
-pub fn order_peak(traces: &[Trace]) -> OrderPeak {
-    let mut best = OrderPeak {
-        order: 1,
-        share: 0.0,
-        amp: 0.0,
-        phase: 0.0,
-    };
-    let mut total = 0.0f64;
-    let mut used = 0usize;
-    // Samples turning faster than 10 % of the top speed, their angle and relative residual.
-    let mut samples: Vec<(f64, f64, f64)> = Vec::new();
-    for t in traces {
-        let wmax = peak(&t.omega);
-        let mut theta = 0.0f64;
-        for k in 0..t.omega.len() {
-            let w = t.omega[k] as f64;
-            if w.abs() > 0.1 * wmax as f64 {
-                samples.push((theta, t.residual[k] as f64, w));
-                total += (t.residual[k] as f64).powi(2);
-                used += 1;
-            }
-            theta += w * t.dt as f64;
-        }
-    }
-    if used < 16 || total <= 0.0 {
-        return best;
-    }
-    for order in 1..=64u32 {
-        // Least-squares fit of r = w (a sin + b cos)(order theta): the ripple model.
-        let (mut ss, mut cc, mut sc, mut rs, mut rc) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for &(theta, r, w) in &samples {
-            let (s, c) = (order as f64 * theta).sin_cos();
-            let (s, c) = (w * s, w * c);
-            ss += s * s;
-            cc += c * c;
-            sc += s * c;
-            rs += r * s;
-            rc += r * c;
-        }
-        let det = ss * cc - sc * sc;
-        if det <= 0.0 {
-            continue;
-        }
-        let a = (rs * cc - rc * sc) / det;
-        let b = (rc * ss - rs * sc) / det;
-        let explained = a * rs + b * rc;
-        let share = explained / total;
-        if share > best.share {
-            // a sin + b cos = amp sin(x + phase) with a = amp cos(phase), b = amp sin(phase).
-            let phase = b.atan2(a).rem_euclid(std::f64::consts::TAU);
-            best = OrderPeak {
-                order,
-                share,
-                amp: a.hypot(b),
-                phase,
-            };
-        }
-    }
-    best
 }
 
 /// The `where` report: how the baseline's misfit spreads over regimes and records, and what
@@ -439,5 +343,61 @@ fn round(x: f64) -> f64 {
         (x * 1e6).round() / 1e6
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A forward and a reverse run at constant speed, with the residual `misfit` in the
+    /// reverse half only (after the reversal's sample).
+    fn reversal(misfit: f32) -> Trace {
+        let n = 400;
+        let omega: Vec<f32> = (0..n)
+            .map(|k| if k < n / 2 { 100.0 } else { -100.0 })
+            .collect();
+        let residual = (0..n)
+            .map(|k| {
+                if k <= n / 2 {
+                    0.0
+                } else {
+                    misfit * if k % 2 == 0 { 1.0 } else { -1.0 }
+                }
+            })
+            .collect();
+        Trace {
+            name: "r.csv".into(),
+            set: "train",
+            dt: 0.01,
+            residual,
+            current: omega.iter().map(|w| w * 0.01).collect(),
+            omega,
+        }
+    }
+
+    #[test]
+    fn the_misfit_is_found_where_it_lies() {
+        let report = analyse(&[reversal(0.5)], 0.01);
+        let first = &report.regimes[0];
+        assert!(
+            ["reverse", "i < 0"].contains(&first.short),
+            "{:?}",
+            report.regimes
+        );
+        assert_eq!(first.share_of_misfit, 1.0);
+        let ratio = |r: &RegimeShare| r.share_of_misfit / r.share_of_samples;
+        assert!(report
+            .regimes
+            .windows(2)
+            .all(|w| ratio(&w[0]) >= ratio(&w[1])));
+        assert!(report.summary[0].starts_with("100 % of the misfit lies in "));
+        assert_eq!(
+            report.records[0].rmse,
+            round((0.25f64 * 199.0 / 400.0).sqrt())
+        );
+        // Fitted to the noise: said first.
+        let quiet = analyse(&[reversal(0.01)], 0.01);
+        assert!(quiet.summary[0].starts_with("the baseline fits to the noise"));
     }
 }

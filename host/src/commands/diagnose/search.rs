@@ -3,7 +3,8 @@
 //! on top of that.
 
 use super::data::{Data, Scored};
-use super::regimes::{self, OrderPeak, WhereReport};
+use super::regimes::{self, WhereReport};
+use super::spectrum::{order_peak, OrderPeak};
 use super::verdict::{significant, Holdout};
 use crate::fit::{fit_from, Fit, FitOptions};
 use anyhow::{anyhow, Result};
@@ -66,7 +67,7 @@ pub fn search(data: &Data, opts: &FitOptions) -> Result<Search> {
     };
     let traces = data.traces(&base_params)?;
     let where_ = regimes::analyse(&traces, baseline.fit.result.sigma_omega);
-    let ripple = regimes::order_peak(&traces);
+    let ripple = order_peak(&traces);
     let order = ripple.order;
     let scales = data.scales(&base_params);
 
