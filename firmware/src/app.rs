@@ -10,7 +10,6 @@ use motor_id_shared::device::record_store::RecordStore;
 use motor_id_shared::device::service::{Boot, Service};
 use motor_id_shared::wire::protocol::{MotorReport, NotStored};
 use motor_id_shared::wire::stored::STORE_VERSION;
-use motor_id_shared::ParamId;
 
 /// Longest record the board holds (2,000 samples of voltage, speed and current: 24 KB).
 pub const MAX_SAMPLES: usize = 2000;
@@ -76,31 +75,18 @@ pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
     }
 }
 
-/// Log why power-up commissions.
+/// Log why power-up commissions (`Empty`, `OtherLayout { found }` of another firmware's
+/// store, or `Corrupt`: never read as parameters).
 fn log_not_stored(found: NotStored) {
-    match found {
-        NotStored::Empty => defmt::info!("no parameters stored: commissioning"),
-        NotStored::OtherLayout { found } => defmt::warn!(
-            "stored parameters of layout {} are not read by this firmware (layout {}): commissioning",
-            found,
-            STORE_VERSION
-        ),
-        NotStored::Corrupt => defmt::warn!("stored parameters corrupted (CRC): commissioning"),
-    }
+    defmt::info!(
+        "no parameters this firmware reads (store layout {}): {}; commissioning",
+        STORE_VERSION,
+        found
+    );
 }
 
-/// Log a new report: every estimate by name with its standard deviation (NaN: not pinned).
+/// Log a new report (each estimate by its parameter code, `docs/CONTRACTS.md`; a NaN `std`:
+/// not pinned).
 fn log_report(report: &MotorReport) {
-    for e in &report.estimates {
-        let name = ParamId::ALL
-            .get(usize::from(e.param))
-            .map_or("?", |p| p.name());
-        defmt::info!("  {=str} = {} +- {}", name, e.value, e.std);
-    }
-    defmt::info!(
-        "commissioned: rmse {} rad/s, {} evaluations, rank {}; stored",
-        report.rmse_omega,
-        report.evaluations,
-        report.rank
-    );
+    defmt::info!("commissioned and stored: {}", report);
 }

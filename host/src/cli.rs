@@ -1,8 +1,8 @@
-//! Command-line interface (DESIGN.md contract).
+//! The command-line tree (docs/CONTRACTS.md) and its dispatch to the commands.
 
-use crate::{board_cmd, diagnose, identify_cmd, simulate_cmd};
+use crate::commands::{board, demo, diagnose, identify, import_scope, simulate};
 use anyhow::Result;
-use clap::{Args, Parser, Subcommand};
+use clap::{Parser, Subcommand};
 
 /// Identify DC motor parameters (Ra, La, J, B, Kv and effects) from speed (and current) records.
 #[derive(Parser, Debug)]
@@ -15,50 +15,29 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Simulate an experiment on a motor and write a record CSV.
-    Simulate(simulate_cmd::SimulateArgs),
+    Simulate(simulate::SimulateArgs),
     /// Identify motor parameters from one or more record CSVs (fitted jointly).
-    Identify(identify_cmd::IdentifyArgs),
+    Identify(identify::IdentifyArgs),
     /// Convert an oscilloscope CSV of tacho volts into a record CSV (the seed's workflow).
-    ImportScope(identify_cmd::ScopeArgs),
+    ImportScope(import_scope::ScopeArgs),
     /// Locate the sim-to-real gap: where the model misfits, which unmodelled effect causes it,
     /// how far the misfit shrinks with it, judged on held-out records.
     Diagnose(diagnose::DiagnoseArgs),
     /// Talk to a drive board (or its QEMU build) over a serial port.
-    Board(board_cmd::BoardArgs),
+    Board(board::BoardArgs),
     /// Run the whole job on a built-in default: the seed's motor, simulated, identified from
     /// speed only (seed workflow) and from speed and current.
-    Demo(identify_cmd::DemoArgs),
-}
-
-/// Options shared by the fitting commands.
-#[derive(Args, Debug, Clone, Default)]
-pub struct FitOptions {
-    /// Search bounds, e.g. `ra=0.5:10,j=1e-6:1e-3` (default: seed Table 1). Bounds on an
-    /// effect parameter (e.g. `tc=0:0.1`) fit that effect.
-    #[arg(long, value_name = "P=LO:HI,...")]
-    pub bounds: Vec<String>,
-    /// Hold parameters at known values, e.g. `ra=3.4,la=0.00285`.
-    #[arg(long, value_name = "P=V,...")]
-    pub fix: Vec<String>,
-    /// Random seed (same seed and data, same result).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Ignore the current column (fit speed only, as the seed does).
-    #[arg(long)]
-    pub speed_only: bool,
-    /// No progress bar.
-    #[arg(long, short)]
-    pub quiet: bool,
+    Demo(demo::DemoArgs),
 }
 
 /// Run a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Simulate(a) => simulate_cmd::run(&a),
-        Command::Identify(a) => identify_cmd::run(&a),
-        Command::ImportScope(a) => identify_cmd::import_scope(&a),
-        Command::Demo(a) => identify_cmd::demo(&a),
+        Command::Simulate(a) => simulate::run(&a),
+        Command::Identify(a) => identify::run(&a),
+        Command::ImportScope(a) => import_scope::run(&a),
+        Command::Demo(a) => demo::run(&a),
         Command::Diagnose(a) => diagnose::run(&a),
-        Command::Board(a) => board_cmd::run(&a),
+        Command::Board(a) => board::run(&a),
     }
 }

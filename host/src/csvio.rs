@@ -1,4 +1,4 @@
-//! Record CSV (DESIGN.md contract): a header row; columns `t` (s, uniform step), `v` (V),
+//! Record CSV (docs/CONTRACTS.md): a header row; columns `t` (s, uniform step), `v` (V),
 //! `omega` (rad/s), optional `i` (A), optional `tl` (N m); other columns ignored. Plus the
 //! oscilloscope import of the seed's workflow (tacho volts to rad/s).
 
@@ -60,6 +60,16 @@ impl OwnedRecord {
     /// Read and validate a record CSV.
     pub fn read(path: &Path) -> Result<OwnedRecord> {
         read_record(path).with_context(|| path.display().to_string())
+    }
+
+    /// Read and validate several record CSVs, stopping at the first that fails.
+    pub fn read_all(paths: &[PathBuf]) -> Result<Vec<OwnedRecord>> {
+        paths.iter().map(|p| OwnedRecord::read(p)).collect()
+    }
+
+    /// Borrow each of `records` as the core's record ([`OwnedRecord::as_record`]).
+    pub fn as_records(records: &[OwnedRecord], use_current: bool) -> Vec<Record<'_>> {
+        records.iter().map(|r| r.as_record(use_current)).collect()
     }
 
     /// Write as record CSV.

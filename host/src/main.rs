@@ -1,15 +1,16 @@
 //! `motor-id`: identify DC motor parameters (seed paper: FFO on the speed RMSE, Eq. 7) from
 //! recorded or simulated data, with an honest identifiability report.
 
-mod board_cmd;
 mod cli;
+mod commands;
 mod csvio;
-mod diagnose;
-mod identify_cmd;
+mod fit;
+mod fit_plot;
+mod output;
 mod plot;
 mod progress;
 mod report;
-mod simulate_cmd;
+mod simulation;
 mod spec;
 
 use clap::Parser;

@@ -19,7 +19,7 @@ pub(super) fn abort_requested(link: &mut impl Link) -> bool {
     match link.poll() {
         Some(HostMessage::Abort) => true,
         Some(_) => {
-            link.send(&BoardMessage::Refused(Refusal::Busy));
+            refuse(link, Refusal::Busy);
             false
         }
         None => false,
@@ -33,4 +33,12 @@ pub(super) fn fail<T>(end: JobEnd, link: &mut impl Link) -> Result<T, JobEnd> {
         JobEnd::Refused(r) => BoardMessage::Refused(r),
     });
     Err(end)
+}
+
+/// Send a refusal. Built here at run time: a constant message written at each call site
+/// would be a whole [`BoardMessage`] in flash per site (the size of its largest variant, a
+/// report).
+#[inline(never)]
+pub(super) fn refuse(link: &mut impl Link, why: Refusal) {
+    link.send(&BoardMessage::Refused(why));
 }

@@ -8,10 +8,10 @@
 
 use crate::device::commissioning::{commissioning_spec, run_experiment, safety_checks, Limits};
 use crate::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
-use crate::device::job::{abort_requested, fail, JobEnd};
+use crate::device::job::{abort_requested, fail, refuse, JobEnd};
 use crate::device::record_store::RecordStore;
 use crate::device::report::motor_report;
-use crate::fit::identify::{identify, IdentifyConfig, Pipeline, Progress, Stage};
+use crate::fit::identify::{identify, Identification, IdentifyConfig, Pipeline, Progress, Stage};
 use crate::fit::space::ProblemSpec;
 use crate::wire::protocol::{
     BoardMessage, HostMessage, JobStage, MotorReport, NotStored, PipelineName, Refusal,
@@ -51,6 +51,31 @@ const fn pipeline_named(name: PipelineName) -> Pipeline {
         PipelineName::Default => Pipeline::Default,
         PipelineName::Board => Pipeline::Board,
         PipelineName::Paper => Pipeline::Paper,
+    }
+}
+
+/// Report an identification: store it (with `store`) and send it. In a frame of its own,
+/// so that the report and its message take no stack while the identification runs.
+#[inline(never)]
+fn deliver(
+    id: &Identification,
+    store: bool,
+    params: &mut impl ParamStore,
+    link: &mut impl Link,
+) -> Result<MotorReport, JobEnd> {
+    // The board's own problems always fit its report (see `motor_report`).
+    let Some(report) = motor_report(id) else {
+        return fail(JobEnd::Refused(Refusal::InvalidRecord), link);
+    };
+    if store {
+        params.save(&report);
+    }
+    // Sent in place and taken back (no copy of the report).
+    let message = BoardMessage::Identified(report);
+    link.send(&message);
+    match message {
+        BoardMessage::Identified(report) => Ok(report),
+        _ => unreachable!("built as Identified above"),
     }
 }
 
@@ -108,21 +133,25 @@ impl<'s, const N: usize> Service<'s, N> {
         if let HostMessage::Hello { version } = msg {
             if version == PROTOCOL_VERSION {
                 self.session = true;
-                hw.link.send(&BoardMessage::Hello {
+                // Bound first: a promoted constant would be a whole message in flash.
+                let hello = BoardMessage::Hello {
                     version: PROTOCOL_VERSION,
                     max_samples: N as u32,
-                });
+                };
+                hw.link.send(&hello);
             } else {
                 self.session = false;
-                hw.link
-                    .send(&BoardMessage::Refused(Refusal::VersionMismatch {
+                refuse(
+                    &mut hw.link,
+                    Refusal::VersionMismatch {
                         board: PROTOCOL_VERSION,
-                    }));
+                    },
+                );
             }
             return;
         }
         if !self.session {
-            hw.link.send(&BoardMessage::Refused(Refusal::NoSession));
+            refuse(&mut hw.link, Refusal::NoSession);
             return;
         }
         match msg {
@@ -133,9 +162,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 with_current,
             } => {
                 if samples as usize > N {
-                    hw.link.send(&BoardMessage::Refused(Refusal::RecordTooLong {
-                        max: N as u32,
-                    }));
+                    refuse(&mut hw.link, Refusal::RecordTooLong { max: N as u32 });
                     return;
                 }
                 let s = &mut *self.store;
@@ -144,7 +171,8 @@ impl<'s, const N: usize> Service<'s, N> {
                 s.expected = samples as usize;
                 s.with_current = with_current;
                 s.coast_from = None;
-                hw.link.send(&BoardMessage::ChunkOk { next: 0 });
+                let first = BoardMessage::ChunkOk { next: 0 };
+                hw.link.send(&first);
             }
             HostMessage::RecordChunk {
                 offset,
@@ -164,7 +192,7 @@ impl<'s, const N: usize> Service<'s, N> {
                     && (!s.with_current || current.len() == n)
                     && s.len + n <= s.expected;
                 if !ok {
-                    hw.link.send(&BoardMessage::Refused(Refusal::BadChunk));
+                    refuse(&mut hw.link, Refusal::BadChunk);
                     return;
                 }
                 for k in 0..n {
@@ -177,7 +205,7 @@ impl<'s, const N: usize> Service<'s, N> {
             }
             HostMessage::Identify { seed, pipeline } => {
                 if self.store.len != self.store.expected || self.store.len == 0 {
-                    hw.link.send(&BoardMessage::Refused(Refusal::BadChunk));
+                    refuse(&mut hw.link, Refusal::BadChunk);
                     return;
                 }
                 // The host's settings of the same name, so that the answer is bit-identical.
@@ -195,9 +223,13 @@ impl<'s, const N: usize> Service<'s, N> {
             }
             HostMessage::ClearParams => {
                 hw.params.clear();
-                hw.link.send(&BoardMessage::Cleared);
+                let cleared = BoardMessage::Cleared;
+                hw.link.send(&cleared);
             }
-            HostMessage::Abort => hw.link.send(&BoardMessage::Aborted),
+            HostMessage::Abort => {
+                let aborted = BoardMessage::Aborted;
+                hw.link.send(&aborted);
+            }
         }
     }
 
@@ -233,17 +265,7 @@ impl<'s, const N: usize> Service<'s, N> {
         hw.watchdog.feed();
         let end = match result {
             _ if aborted => JobEnd::Aborted,
-            // The board's own problems always fit its report (see `motor_report`).
-            Ok(id) => match motor_report(&id) {
-                Some(report) => {
-                    if store {
-                        hw.params.save(&report);
-                    }
-                    hw.link.send(&BoardMessage::Identified(report.clone()));
-                    return Ok(report);
-                }
-                None => JobEnd::Refused(Refusal::InvalidRecord),
-            },
+            Ok(id) => return deliver(&id, store, &mut hw.params, &mut hw.link),
             Err(crate::Error::InvalidConfig) => JobEnd::Refused(Refusal::PipelineTooLarge),
             Err(_) => JobEnd::Refused(Refusal::InvalidRecord),
         };

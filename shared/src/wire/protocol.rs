@@ -88,6 +88,7 @@ pub enum JobStage {
 
 /// An identified motor as the board reports and stores it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MotorReport {
     /// The five motor parameters (Ra, La, J, B, Kv), then every effect parameter that was
     /// identified (commissioning: Coulomb friction `tc`, which its coast-down shows).
@@ -110,6 +111,7 @@ impl MotorReport {
 /// One identified parameter with its uncertainty: the same for the five motor parameters
 /// and for the parameters of effects.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Estimate {
     /// The parameter, by its wire code: its position in the model's parameter list (ra 0,
     /// la 1, j 2, b 3, kv 4, tc 5, ...; `docs/CONTRACTS.md` lists them). Codes are never

@@ -122,6 +122,26 @@ const SPECS: [ParamSpec; PARAM_COUNT] = {
     out
 };
 
+/// One field of every parameter's spec, at its [`ParamId::index`]: a table of its own, so
+/// that a build links only the fields it reads (a board validates ranges; it prints no name).
+macro_rules! spec_field {
+    ($field:ident: $t:ty) => {{
+        let mut out: [$t; PARAM_COUNT] = [SPECS[0].$field; PARAM_COUNT];
+        let mut k = 0;
+        while k < PARAM_COUNT {
+            out[k] = SPECS[k].$field;
+            k += 1;
+        }
+        out
+    }};
+}
+
+const NAMES: [&str; PARAM_COUNT] = spec_field!(name: &str);
+const KEYS: [&str; PARAM_COUNT] = spec_field!(key: &str);
+const UNITS: [&str; PARAM_COUNT] = spec_field!(unit: &str);
+const DEFAULT_BOUNDS: [(f32, f32); PARAM_COUNT] = spec_field!(default_bounds: (f32, f32));
+const PHYSICAL_RANGES: [(f32, f32); PARAM_COUNT] = spec_field!(physical_range: (f32, f32));
+
 // Effect and CATALOGUE list the entries in the same order.
 const _: () = {
     let mut k = 0;
@@ -139,7 +159,7 @@ impl ParamId {
 
     /// Name on the command line and in JSON.
     pub const fn name(self) -> &'static str {
-        self.spec().name
+        NAMES[self as usize]
     }
 
     /// Parse a name as printed by [`ParamId::name`].
@@ -149,24 +169,24 @@ impl ParamId {
 
     /// Unit, as printed (empty for a ratio).
     pub const fn unit(self) -> &'static str {
-        self.spec().unit
+        UNITS[self as usize]
     }
 
     /// Seed Table 1 bounds for the motor parameters; for effect parameters a default search
     /// range that a caller usually narrows to the motor at hand.
     pub const fn default_bounds(self) -> (f32, f32) {
-        self.spec().default_bounds
+        DEFAULT_BOUNDS[self as usize]
     }
 
     /// Smallest and largest physically meaningful value (inclusive).
     pub const fn physical_range(self) -> (f32, f32) {
-        self.spec().physical_range
+        PHYSICAL_RANGES[self as usize]
     }
 
     /// The key of this parameter after `NAME:` on the command line
     /// (`tacho_ripple:amp=0.02,cycles=8,phase=0`); the full name is accepted too.
     pub const fn short_key(self) -> &'static str {
-        self.spec().key
+        KEYS[self as usize]
     }
 
     /// The effect this parameter belongs to (`None` for the five motor parameters).

@@ -1,24 +1,11 @@
 //! Where the baseline misfits: the residual's share by operating regime and record, its
-//! correlation with the signatures of the catalogued effects, and its order spectrum (a
-//! peak at a fixed number of cycles per revolution scales with speed: the tacho).
+//! correlation with the signatures of the catalogued effects, and the peak of its order
+//! spectrum ([`super::spectrum`]).
 
-use serde_json::{json, Value};
-
-/// One record's baseline residual and what the model says about its operating point.
-pub struct Trace {
-    /// File name.
-    pub name: String,
-    /// "train" or "holdout".
-    pub set: &'static str,
-    /// Sample step [s].
-    pub dt: f32,
-    /// measured - baseline speed [rad/s].
-    pub residual: Vec<f32>,
-    /// Baseline simulated speed [rad/s].
-    pub omega: Vec<f32>,
-    /// Armature current [A] (measured, else simulated).
-    pub current: Vec<f32>,
-}
+use super::data::{peak, Trace};
+use super::spectrum::{order_peak, OrderPeak};
+use motor_id_shared::model::effects::{Effect, Signature, SignatureSample};
+use serde::Serialize;
 
 /// A class of samples.
 struct Regime {
@@ -95,10 +82,6 @@ const REGIMES: [Regime; 11] = [
     },
 ];
 
-fn peak(x: &[f32]) -> f32 {
-    x.iter().fold(0.0f32, |m, v| m.max(v.abs()))
-}
-
 /// Central-difference derivative.
 fn derivative(x: &[f32], dt: f32) -> Vec<f32> {
     let n = x.len();
@@ -134,87 +117,79 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
-/// The strongest ripple of the residual against rotor angle.
-#[derive(Clone, Copy, Debug)]
-pub struct OrderPeak {
+/// The `where` report: how the baseline's misfit spreads over regimes and records, and what
+/// it resembles.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct WhereReport {
+    /// Baseline speed RMSE over all records [rad/s].
+    pub rmse: f64,
+    /// Measured speed noise of the training records [rad/s].
+    pub noise: f64,
+    /// Regimes, the most over-represented in the misfit first.
+    pub regimes: Vec<RegimeShare>,
+    /// Each record's share.
+    pub records: Vec<RecordShare>,
+    /// Effects' signatures, the best correlated first.
+    pub signatures: Vec<SignatureMatch>,
+    /// The residual's strongest ripple against rotor angle.
+    pub spectrum: Spectrum,
+    /// The findings in words.
+    pub summary: Vec<String>,
+}
+
+/// One regime's share of the misfit.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct RegimeShare {
+    /// Name.
+    pub name: &'static str,
+    /// Short name (plot label).
+    pub short: &'static str,
+    /// Share of the squared residual.
+    pub share_of_misfit: f64,
+    /// Share of the samples.
+    pub share_of_samples: f64,
+    /// RMSE within it [rad/s].
+    pub rmse: f64,
+}
+
+/// One record's share of the misfit.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct RecordShare {
+    /// File name.
+    pub file: String,
+    /// "train" or "holdout".
+    pub set: &'static str,
+    /// Share of the squared residual.
+    pub share_of_misfit: f64,
+    /// RMSE of the record [rad/s].
+    pub rmse: f64,
+}
+
+/// How well the residual follows an effect's signature.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct SignatureMatch {
+    /// The signature.
+    pub signature: &'static str,
+    /// The effect it belongs to.
+    pub points_to: &'static str,
+    /// Pearson correlation with the residual.
+    pub correlation: f64,
+}
+
+/// The order spectrum's peak.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct Spectrum {
     /// Cycles per revolution.
-    pub order: u32,
+    pub order_cycles_per_rev: u32,
     /// Share of the residual's energy it explains.
-    pub share: f64,
-    /// Relative amplitude of `w * amp * sin(order * theta + phase)`.
-    pub amp: f64,
-    /// Phase [rad], in [0, 2 pi).
-    pub phase: f64,
+    pub share_of_residual: f64,
+    /// The effect a ripple points to.
+    pub points_to: &'static str,
 }
 
-/// Order spectrum of the residual against rotor angle (integrated baseline speed): for each
-/// order in 1..=64 cycles per revolution, the least-squares fit of
-/// `r = w (a sin + b cos)(order theta)` (the tacho ripple's signature); the order that
-/// explains most of the residual's energy.
-pub fn order_peak(traces: &[Trace]) -> OrderPeak {
-    let mut best = OrderPeak {
-        order: 1,
-        share: 0.0,
-        amp: 0.0,
-        phase: 0.0,
-    };
-    let mut total = 0.0f64;
-    let mut used = 0usize;
-    // Samples turning faster than 10 % of the top speed, their angle and relative residual.
-    let mut samples: Vec<(f64, f64, f64)> = Vec::new();
-    for t in traces {
-        let wmax = peak(&t.omega);
-        let mut theta = 0.0f64;
-        for k in 0..t.omega.len() {
-            let w = t.omega[k] as f64;
-            if w.abs() > 0.1 * wmax as f64 {
-                samples.push((theta, t.residual[k] as f64, w));
-                total += (t.residual[k] as f64).powi(2);
-                used += 1;
-            }
-            theta += w * t.dt as f64;
-        }
-    }
-    if used < 16 || total <= 0.0 {
-        return best;
-    }
-    for order in 1..=64u32 {
-        // Least-squares fit of r = w (a sin + b cos)(order theta): the ripple model.
-        let (mut ss, mut cc, mut sc, mut rs, mut rc) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for &(theta, r, w) in &samples {
-            let (s, c) = (order as f64 * theta).sin_cos();
-            let (s, c) = (w * s, w * c);
-            ss += s * s;
-            cc += c * c;
-            sc += s * c;
-            rs += r * s;
-            rc += r * c;
-        }
-        let det = ss * cc - sc * sc;
-        if det <= 0.0 {
-            continue;
-        }
-        let a = (rs * cc - rc * sc) / det;
-        let b = (rc * ss - rs * sc) / det;
-        let explained = a * rs + b * rc;
-        let share = explained / total;
-        if share > best.share {
-            // a sin + b cos = amp sin(x + phase) with a = amp cos(phase), b = amp sin(phase).
-            let phase = b.atan2(a).rem_euclid(std::f64::consts::TAU);
-            best = OrderPeak {
-                order,
-                share,
-                amp: a.hypot(b),
-                phase,
-            };
-        }
-    }
-    best
-}
-
-/// The `where` report.
+/// Where the baseline misfits `traces`, with `noise` the measured speed noise.
 #[allow(clippy::needless_range_loop)] // one index over five parallel per-sample series
-pub fn analyse(traces: &[Trace], noise: f32) -> Value {
+pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
     let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
     let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
     let accels: Vec<Vec<f32>> = traces.iter().map(|t| derivative(&t.omega, t.dt)).collect();
@@ -223,14 +198,12 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
     let mut samples = 0usize;
     let mut regime_sse = [0.0f64; REGIMES.len()];
     let mut regime_n = [0usize; REGIMES.len()];
-    // Signatures: what the residual of each effect looks like (DESIGN.md catalogue).
-    let names = [
-        ("minus acceleration", "sensor_delay"),
-        ("minus sign of speed", "coulomb_friction"),
-        ("minus speed*|speed|", "quadratic_load"),
-        ("current*|current|", "armature_reaction"),
-        ("minus sign of current", "brush_drop"),
-    ];
+    // Signatures: what the residual looks like when the model lacks an effect, from the
+    // effect's catalogue entry.
+    let names: Vec<(&'static str, Signature)> = Effect::ALL
+        .iter()
+        .filter_map(|e| e.spec().signature.map(|s| (e.name(), s)))
+        .collect();
     let mut sig: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     let mut res_all = Vec::new();
     let mut records = Vec::new();
@@ -253,12 +226,16 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
                     regime_n[i] += 1;
                 }
             }
-            let (w, i) = (s.omega as f64, s.current as f64);
-            sig[0].push(-(s.accel as f64));
-            sig[1].push(-w.signum() * (w.abs() > 0.02 * omega_max as f64) as i32 as f64);
-            sig[2].push(-w * w.abs());
-            sig[3].push(i * i.abs());
-            sig[4].push(-i.signum() * (i.abs() > 0.02 * current_max as f64) as i32 as f64);
+            let at = SignatureSample {
+                omega: s.omega as f64,
+                accel: s.accel as f64,
+                current: s.current as f64,
+                omega_max: omega_max as f64,
+                current_max: current_max as f64,
+            };
+            for (series, (_, signature)) in sig.iter_mut().zip(&names) {
+                series.push((signature.at)(&at));
+            }
             res_all.push(r);
         }
         total += sse;
@@ -267,7 +244,7 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
     }
     let total = total.max(f64::MIN_POSITIVE);
     let n = samples.max(1) as f64;
-    let mut regimes: Vec<Value> = Vec::new();
+    let mut regimes: Vec<RegimeShare> = Vec::new();
     let mut ranked: Vec<(f64, String)> = Vec::new();
     for (i, reg) in REGIMES.iter().enumerate() {
         if regime_n[i] == 0 {
@@ -276,13 +253,13 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
         let share = regime_sse[i] / total;
         let sample_share = regime_n[i] as f64 / n;
         let rmse = (regime_sse[i] / regime_n[i] as f64).sqrt();
-        regimes.push(json!({
-            "name": reg.name,
-            "short": reg.short,
-            "share_of_misfit": round(share),
-            "share_of_samples": round(sample_share),
-            "rmse": round(rmse),
-        }));
+        regimes.push(RegimeShare {
+            name: reg.name,
+            short: reg.short,
+            share_of_misfit: round(share),
+            share_of_samples: round(sample_share),
+            rmse: round(rmse),
+        });
         ranked.push((
             share / sample_share,
             format!(
@@ -295,34 +272,32 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
         ));
     }
     regimes.sort_by(|a, b| {
-        let c = |v: &Value| {
-            v["share_of_misfit"].as_f64().unwrap_or(0.0)
-                / v["share_of_samples"].as_f64().unwrap_or(1.0)
-        };
+        let c = |r: &RegimeShare| r.share_of_misfit / r.share_of_samples;
         c(b).total_cmp(&c(a))
     });
     ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let per_record: Vec<Value> = records
-        .iter()
-        .map(|(name, set, sse, len)| {
-            json!({
-                "file": name, "set": set,
-                "share_of_misfit": round(sse / total),
-                "rmse": round((sse / *len.max(&1) as f64).sqrt()),
-            })
+    let per_record: Vec<RecordShare> = records
+        .into_iter()
+        .map(|(file, set, sse, len)| RecordShare {
+            file,
+            set,
+            share_of_misfit: round(sse / total),
+            rmse: round((sse / len.max(1) as f64).sqrt()),
         })
         .collect();
     // Ranked by correlation with its sign: a signature points at its effect only when the
     // residual follows it (a negative correlation is the opposite of that effect).
-    let mut signatures: Vec<(f64, Value)> = names
+    let mut signatures: Vec<(f64, SignatureMatch)> = names
         .iter()
         .zip(&sig)
-        .map(|((name, effect), s)| {
+        .map(|(&(points_to, signature), s)| {
             let c = correlation(&res_all, s);
-            (
-                c,
-                json!({ "signature": name, "points_to": effect, "correlation": round(c) }),
-            )
+            let m = SignatureMatch {
+                signature: signature.label,
+                points_to,
+                correlation: round(c),
+            };
+            (c, m)
         })
         .collect();
     signatures.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -337,13 +312,11 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
     if rmse <= 1.05 * noise as f64 {
         summary.insert(0, format!("the baseline fits to the noise ({rmse:.3} vs {noise:.3} rad/s): no misfit to locate"));
     }
-    if let Some((c, v)) = signatures.first() {
+    if let Some((c, m)) = signatures.first() {
         if *c > 0.3 {
             summary.push(format!(
                 "the residual follows {} (correlation {:.2}), the signature of {}",
-                v["signature"].as_str().unwrap_or(""),
-                v["correlation"].as_f64().unwrap_or(0.0),
-                v["points_to"].as_str().unwrap_or("")
+                m.signature, m.correlation, m.points_to
             ));
         }
     }
@@ -353,15 +326,19 @@ pub fn analyse(traces: &[Trace], noise: f32) -> Value {
             100.0 * share
         ));
     }
-    json!({
-        "rmse": round(rmse),
-        "noise": round(noise as f64),
-        "regimes": regimes,
-        "records": per_record,
-        "signatures": signatures.into_iter().map(|(_, v)| v).collect::<Vec<_>>(),
-        "spectrum": { "order_cycles_per_rev": order, "share_of_residual": round(share), "points_to": "tacho_ripple" },
-        "summary": summary,
-    })
+    WhereReport {
+        rmse: round(rmse),
+        noise: round(noise as f64),
+        regimes,
+        records: per_record,
+        signatures: signatures.into_iter().map(|(_, m)| m).collect(),
+        spectrum: Spectrum {
+            order_cycles_per_rev: order,
+            share_of_residual: round(share),
+            points_to: Effect::TachoRipple.name(),
+        },
+        summary,
+    }
 }
 
 fn round(x: f64) -> f64 {
@@ -369,5 +346,61 @@ fn round(x: f64) -> f64 {
         (x * 1e6).round() / 1e6
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A forward and a reverse run at constant speed, with the residual `misfit` in the
+    /// reverse half only (after the reversal's sample).
+    fn reversal(misfit: f32) -> Trace {
+        let n = 400;
+        let omega: Vec<f32> = (0..n)
+            .map(|k| if k < n / 2 { 100.0 } else { -100.0 })
+            .collect();
+        let residual = (0..n)
+            .map(|k| {
+                if k <= n / 2 {
+                    0.0
+                } else {
+                    misfit * if k % 2 == 0 { 1.0 } else { -1.0 }
+                }
+            })
+            .collect();
+        Trace {
+            name: "r.csv".into(),
+            set: "train",
+            dt: 0.01,
+            residual,
+            current: omega.iter().map(|w| w * 0.01).collect(),
+            omega,
+        }
+    }
+
+    #[test]
+    fn the_misfit_is_found_where_it_lies() {
+        let report = analyse(&[reversal(0.5)], 0.01);
+        let first = &report.regimes[0];
+        assert!(
+            ["reverse", "i < 0"].contains(&first.short),
+            "{:?}",
+            report.regimes
+        );
+        assert_eq!(first.share_of_misfit, 1.0);
+        let ratio = |r: &RegimeShare| r.share_of_misfit / r.share_of_samples;
+        assert!(report
+            .regimes
+            .windows(2)
+            .all(|w| ratio(&w[0]) >= ratio(&w[1])));
+        assert!(report.summary[0].starts_with("100 % of the misfit lies in "));
+        assert_eq!(
+            report.records[0].rmse,
+            round((0.25f64 * 199.0 / 400.0).sqrt())
+        );
+        // Fitted to the noise: said first.
+        let quiet = analyse(&[reversal(0.01)], 0.01);
+        assert!(quiet.summary[0].starts_with("the baseline fits to the noise"));
     }
 }

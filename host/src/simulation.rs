@@ -1,4 +1,5 @@
-//! `motor-id simulate`: an experiment on a simulated motor, written as record CSV.
+//! A simulated experiment: its description (the arguments of `simulate`, also built by
+//! `demo`) and the record it produces.
 
 use crate::csvio::OwnedRecord;
 use crate::spec::{apply_effect, parse_motor};
@@ -14,7 +15,7 @@ use std::path::PathBuf;
 /// Most samples one simulation may write.
 const MAX_SAMPLES: usize = 20_000_000;
 
-/// Arguments of `simulate`.
+/// A simulated experiment (the arguments of `simulate`).
 #[derive(Args, Debug, Clone)]
 pub struct SimulateArgs {
     /// Motor parameters `ra=..,la=..,j=..,b=..,kv=..` (default: the seed's identified motor
@@ -54,20 +55,6 @@ pub struct SimulateArgs {
     /// Leave the current column out of the CSV (a tacho-only record, as in the seed).
     #[arg(long)]
     pub speed_only: bool,
-}
-
-/// Run `simulate`.
-pub fn run(a: &SimulateArgs) -> Result<()> {
-    let rec = simulate(a)?;
-    rec.write(&a.out)?;
-    eprintln!(
-        "wrote {} samples ({} s at {} Hz) to {}",
-        rec.len(),
-        rec.len() as f64 * rec.dt as f64,
-        a.rate,
-        a.out.display()
-    );
-    Ok(())
 }
 
 /// Build the simulated record described by `a`.

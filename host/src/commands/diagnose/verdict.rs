@@ -14,7 +14,7 @@
 //! - the effect is not below the resolution of the sampling: a tacho delay under half a
 //!   sample is indistinguishable from a different convention of when readings are taken.
 
-use crate::identify_cmd::Fit;
+use crate::fit::Fit;
 
 /// Smallest BIC drop on the training records.
 const BIC_DROP: f64 = 10.0;

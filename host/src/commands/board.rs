@@ -2,19 +2,19 @@
 //! board (or its QEMU build) over a serial port with the frames of `motor_id_shared::wire::frame`.
 
 use crate::csvio::OwnedRecord;
-use crate::identify_cmd::{write_json, PipelineArg};
+use crate::fit::PipelineArg;
+use crate::output::write_json;
 use crate::progress::FitProgress;
-use crate::report::num;
+use crate::report::{ByParam, Num, ParamEstimate};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
 use motor_id_shared::fit::identify::{Progress, Stage};
 use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
-    BoardMessage, Estimate, HostMessage, JobStage, MotorReport, NotStored, Refusal, CHUNK,
-    PROTOCOL_VERSION,
+    BoardMessage, HostMessage, JobStage, MotorReport, NotStored, Refusal, CHUNK, PROTOCOL_VERSION,
 };
-use serde_json::{json, Map, Value};
+use serde::Serialize;
 use std::io::{Read, Write};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -215,47 +215,75 @@ fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
     out
 }
 
-/// The parameter an estimate names (its wire code is its position in `ParamId::ALL`).
-fn param_of(e: &Estimate) -> Result<ParamId> {
-    ParamId::ALL
-        .get(usize::from(e.param))
-        .copied()
-        .ok_or_else(|| anyhow!("the board reports an unknown parameter (code {})", e.param))
+/// What `board` reports of a motor: the `identify` report's fields that a board sends.
+#[derive(Serialize, Debug)]
+struct BoardReport {
+    /// Motor parameters, and Coulomb friction when the board identified it.
+    params: ByParam<Num>,
+    /// Speed RMSE [rad/s].
+    rmse_omega: Num,
+    /// Model evaluations.
+    evaluations: u32,
+    /// What the data pins.
+    identifiability: BoardIdentifiability,
 }
 
-fn report_json(r: &MotorReport) -> Result<Value> {
-    let mut params = Map::new();
-    let mut ident = Map::new();
-    for e in &r.estimates {
-        let name = param_of(e)?.name();
-        params.insert(name.into(), num(e.value));
-        ident.insert(
-            name.into(),
-            json!({ "value": num(e.value), "pinned": e.pinned(), "std": num(e.std) }),
+/// The board's identifiability: rank and each parameter's estimate.
+#[derive(Serialize, Debug)]
+struct BoardIdentifiability {
+    /// Directions the data pins.
+    rank: u8,
+    /// Parameters identified.
+    free: usize,
+    /// Every parameter's estimate.
+    parameters: ByParam<ParamEstimate>,
+}
+
+impl BoardReport {
+    /// The report of the board's message; an estimate of a parameter this host does not
+    /// know (a newer firmware's) is an error.
+    fn new(r: &MotorReport) -> Result<BoardReport> {
+        let parameters = r
+            .estimates
+            .iter()
+            .map(|e| {
+                let id = ParamId::ALL
+                    .get(usize::from(e.param))
+                    .copied()
+                    .ok_or_else(|| {
+                        anyhow!("the board reports an unknown parameter (code {})", e.param)
+                    })?;
+                Ok((id, ParamEstimate::with_std(e.value, e.std)))
+            })
+            .collect::<Result<ByParam<ParamEstimate>>>()?;
+        Ok(BoardReport {
+            params: parameters.iter().map(|(id, e)| (*id, e.value)).collect(),
+            rmse_omega: Num(r.rmse_omega),
+            evaluations: r.evaluations,
+            identifiability: BoardIdentifiability {
+                rank: r.rank,
+                free: parameters.0.len(),
+                parameters,
+            },
+        })
+    }
+
+    /// The text printed on stdout.
+    fn text(&self) -> String {
+        let mut s = String::new();
+        for (id, e) in self.identifiability.parameters.iter() {
+            let std = match e.std {
+                Some(Num(std)) if e.pinned => format!("+- {std:.3e}"),
+                _ => "NOT pinned".into(),
+            };
+            s += &format!("  {:<3} = {:<14} {std}\n", id.name(), e.value.0);
+        }
+        s += &format!(
+            "rmse_omega = {} rad/s, {} evaluations, rank {}\n",
+            self.rmse_omega.0, self.evaluations, self.identifiability.rank
         );
+        s
     }
-    Ok(json!({
-        "params": params,
-        "rmse_omega": num(r.rmse_omega),
-        "evaluations": r.evaluations,
-        "identifiability": { "rank": r.rank, "free": ident.len(), "parameters": ident },
-    }))
-}
-
-fn print_report(r: &MotorReport) -> Result<()> {
-    for e in &r.estimates {
-        let std = if e.pinned() {
-            format!("+- {:.3e}", e.std)
-        } else {
-            "NOT pinned".into()
-        };
-        println!("  {:<3} = {:<14} {std}", param_of(e)?.name(), e.value);
-    }
-    println!(
-        "rmse_omega = {} rad/s, {} evaluations, rank {}",
-        r.rmse_omega, r.evaluations, r.rank
-    );
-    Ok(())
 }
 
 /// Run `board`.
@@ -339,9 +367,75 @@ pub fn run(a: &BoardArgs) -> Result<()> {
             return Ok(());
         }
     };
-    print_report(&report)?;
+    let report = BoardReport::new(&report)?;
+    print!("{}", report.text());
     if let Some(path) = &a.json {
-        write_json(path, &report_json(&report)?)?;
+        write_json(path, &report)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use motor_id_shared::wire::protocol::Estimate;
+
+    /// A report of the five motor parameters and, with `friction`, `tc` as its sixth.
+    fn motor(friction: Option<(f32, f32)>) -> MotorReport {
+        let values = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
+        let std = [0.01, f32::NAN, 1e-4, 2e-5, 3e-4];
+        let tc = friction.map(|(value, std)| (ParamId::Tc.index(), value, std));
+        MotorReport {
+            estimates: (0..5)
+                .map(|k| (k, values[k], std[k]))
+                .chain(tc)
+                .map(|(k, value, std)| Estimate {
+                    param: k as u8,
+                    value,
+                    std,
+                })
+                .collect(),
+            rmse_omega: 0.25,
+            evaluations: 31,
+            rank: 4,
+        }
+    }
+
+    #[test]
+    fn text_and_json_read_the_same_estimates() {
+        let report = BoardReport::new(&motor(Some((0.1, 0.002)))).unwrap();
+        let text = report.text();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 7);
+        assert_eq!(lines[0], "  ra  = 3.412          +- 1.000e-2");
+        assert_eq!(lines[1], "  la  = 0.0573         NOT pinned");
+        assert_eq!(lines[5], "  tc  = 0.1            +- 2.000e-3");
+        assert_eq!(lines[6], "rmse_omega = 0.25 rad/s, 31 evaluations, rank 4");
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(json["params"]["tc"], 0.1);
+        assert_eq!(json["identifiability"]["free"], 6);
+        assert_eq!(
+            json["identifiability"]["parameters"]["la"]["std"],
+            serde_json::Value::Null
+        );
+        assert_eq!(json["identifiability"]["parameters"]["la"]["pinned"], false);
+        assert_eq!(json["identifiability"]["parameters"]["tc"]["std"], 0.002);
+    }
+
+    #[test]
+    fn without_friction_no_tc() {
+        let report = BoardReport::new(&motor(None)).unwrap();
+        assert_eq!(report.text().lines().count(), 6);
+        let json = serde_json::to_value(&report).unwrap();
+        assert!(json["params"].get("tc").is_none());
+        assert_eq!(json["identifiability"]["free"], 5);
+    }
+
+    #[test]
+    fn a_parameter_code_this_host_does_not_know_is_an_error() {
+        let mut r = motor(None);
+        r.estimates[4].param = 200;
+        let err = BoardReport::new(&r).unwrap_err().to_string();
+        assert_eq!(err, "the board reports an unknown parameter (code 200)");
+    }
 }

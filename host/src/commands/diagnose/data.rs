@@ -1,0 +1,212 @@
+//! The records of a diagnosis and the models fitted on them: the training and held-out
+//! records with the quantities measured on them, a fitted model scored on both sets, and the
+//! conclusions the records cannot support.
+
+use super::verdict::Candidate;
+use crate::csvio::OwnedRecord;
+use crate::fit::Fit;
+use anyhow::{anyhow, Result};
+use motor_id_shared::fit::objective::Objective;
+use motor_id_shared::model::effects::{Effect, Scales};
+use motor_id_shared::{ModelParams, ParamId};
+
+/// One record's baseline residual and what the model says about its operating point.
+pub struct Trace {
+    /// File name.
+    pub name: String,
+    /// "train" or "holdout".
+    pub set: &'static str,
+    /// Sample step [s].
+    pub dt: f32,
+    /// measured - baseline speed [rad/s].
+    pub residual: Vec<f32>,
+    /// Baseline simulated speed [rad/s].
+    pub omega: Vec<f32>,
+    /// Armature current [A] (measured, else simulated).
+    pub current: Vec<f32>,
+}
+
+/// Largest magnitude of `x` (0 when empty).
+pub fn peak(x: &[f32]) -> f32 {
+    x.iter().fold(0.0f32, |m, v| m.max(v.abs()))
+}
+
+/// The training and held-out records.
+pub struct Data {
+    /// Records the models are fitted on.
+    pub train: Vec<OwnedRecord>,
+    /// Records the models are judged on.
+    pub holdout: Vec<OwnedRecord>,
+    /// Whether every record has a current that is fitted.
+    pub with_current: bool,
+}
+
+/// One fitted model and how it does on both sets.
+pub struct Scored {
+    /// The fit on the training records.
+    pub fit: Fit,
+    /// Its speed RMSE on the training records [rad/s].
+    pub train_rmse: f32,
+    /// Its speed RMSE on the held-out records [rad/s].
+    pub holdout_rmse: f32,
+}
+
+impl Data {
+    /// `f` of the held-out records' objective.
+    fn on_holdout<T>(&self, f: impl FnOnce(&Objective) -> T) -> Result<T> {
+        let recs = OwnedRecord::as_records(&self.holdout, self.with_current);
+        let objective = Objective::new(&recs).map_err(|e| anyhow!("holdout: {e}"))?;
+        Ok(f(&objective))
+    }
+
+    fn holdout_rmse(&self, p: &ModelParams) -> Result<f32> {
+        self.on_holdout(|o| o.cost(p).map(|c| c.rmse_omega))?
+            .ok_or_else(|| anyhow!("holdout records cannot be simulated with the fitted model"))
+    }
+
+    /// RMS of the held-out measured speed [rad/s].
+    pub fn holdout_rms(&self) -> f32 {
+        let (sum, n) = self
+            .holdout
+            .iter()
+            .flat_map(|r| r.omega.iter())
+            .fold((0.0f64, 0usize), |(s, n), w| {
+                (s + (*w as f64) * (*w as f64), n + 1)
+            });
+        (sum / n.max(1) as f64).sqrt() as f32
+    }
+
+    /// Measured speed noise of the held-out records [rad/s].
+    pub fn holdout_noise(&self) -> Result<f32> {
+        self.on_holdout(|o| o.sigma_omega())
+    }
+
+    /// The records' scales, with `p`'s resistance for the current when none was measured.
+    pub fn scales(&self, p: &ModelParams) -> Scales {
+        let all = self.train.iter().chain(&self.holdout);
+        let v_max = all.clone().map(|r| peak(&r.v)).fold(0.0, f32::max);
+        let omega_max = all.clone().map(|r| peak(&r.omega)).fold(0.0, f32::max);
+        let measured = all
+            .clone()
+            .filter_map(|r| r.current.as_deref().map(peak))
+            .fold(0.0, f32::max);
+        let current_max = if measured > 0.0 {
+            measured
+        } else {
+            v_max / p.get(ParamId::Ra)
+        };
+        let dt = all.map(|r| r.dt).fold(f32::INFINITY, f32::min);
+        Scales {
+            v_max,
+            omega_max,
+            current_max,
+            dt,
+        }
+    }
+
+    /// `fit` scored on both sets.
+    pub fn score(&self, fit: Fit) -> Result<Scored> {
+        let holdout_rmse = self.holdout_rmse(&fit.result.params)?;
+        Ok(Scored {
+            train_rmse: fit.result.cost.rmse_omega,
+            holdout_rmse,
+            fit,
+        })
+    }
+
+    /// The residual traces of `p` on every record (train and holdout).
+    pub fn traces(&self, p: &ModelParams) -> Result<Vec<Trace>> {
+        let mut out = Vec::new();
+        for (set, recs) in [("train", &self.train), ("holdout", &self.holdout)] {
+            let borrowed = OwnedRecord::as_records(recs, self.with_current);
+            let obj = Objective::new(&borrowed).map_err(|e| anyhow!("{e}"))?;
+            for (k, r) in recs.iter().enumerate() {
+                let mut w = vec![0.0; r.len()];
+                let mut i = vec![0.0; r.len()];
+                obj.simulate(p, k, &mut w, &mut i)
+                    .map_err(|e| anyhow!("{e}"))?;
+                let current = r.current.clone().unwrap_or(i);
+                out.push(Trace {
+                    name: r.name(),
+                    set,
+                    dt: r.dt,
+                    residual: r.omega.iter().zip(&w).map(|(m, s)| m - s).collect(),
+                    omega: w,
+                    current,
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    /// Conclusions this data cannot support (identifiability), with `chosen` the verdict's
+    /// effect.
+    pub fn cannot_support(
+        &self,
+        baseline: &Scored,
+        chosen: Option<&(Effect, Scored)>,
+    ) -> Vec<String> {
+        let mut out = Vec::new();
+        let unpinned = |s: &Scored| -> Vec<ParamId> {
+            let params = s.fit.result.identifiability.params.iter();
+            params.filter(|c| !c.pinned).map(|c| c.id).collect()
+        };
+        let names = |ids: &[ParamId]| ids.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ");
+        let base = unpinned(baseline);
+        if !base.is_empty() {
+            out.push(format!(
+                "the baseline does not pin {}: how they move when an effect is added says nothing",
+                names(&base)
+            ));
+        }
+        if !self.with_current {
+            out.push(
+                "no current was measured: brush_drop and armature_reaction act through the current, so \
+                 they are told apart from each other and from Ra, Kv only by the speed trace"
+                    .into(),
+            );
+        }
+        let has_load = |recs: &[OwnedRecord]| recs.iter().any(|r| r.load.is_some());
+        if !self.with_current
+            && has_load(&self.holdout)
+            && !has_load(&self.train)
+            && !base.is_empty()
+        {
+            out.push(
+                "the held-out records have a known load torque, whose effect on speed the training \
+                 records (speed only, voltage only) do not pin: their RMSE judges the unpinned \
+                 parameters as much as any effect"
+                    .into(),
+            );
+        }
+        if let Some((e, s)) = chosen {
+            let not: Vec<ParamId> = unpinned(s)
+                .into_iter()
+                .filter(|id| e.params().contains(id))
+                .collect();
+            if !not.is_empty() {
+                out.push(format!(
+                    "{} improves the fit, but its parameter(s) {} are not pinned",
+                    e.name(),
+                    names(&not)
+                ));
+            }
+        }
+        out
+    }
+}
+
+impl Scored {
+    /// The significance rule's view of this fit with `effect` added: a tacho delay under
+    /// half a sample is below what the sampling resolves (see [`super::verdict`]).
+    pub fn candidate(&self, effect: Effect, scales: &Scales) -> Candidate {
+        let too_short = effect == Effect::SensorDelay
+            && self.fit.result.params.get(ParamId::Td) < 0.5 * scales.dt;
+        Candidate::of(&self.fit, self.holdout_rmse, effect.params().len()).unresolvable(too_short)
+    }
+
+    /// The significance rule's view of this fit as the reference others add an effect to.
+    pub fn reference(&self) -> Candidate {
+        Candidate::of(&self.fit, self.holdout_rmse, 0)
+    }
+}

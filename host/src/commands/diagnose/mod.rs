@@ -1,0 +1,69 @@
+//! `motor-id diagnose`: where the model misfits, which unmodelled effect causes it, how far
+//! the misfit shrinks once it is modelled — judged on held-out records the fit never saw.
+//!
+//! This module holds the arguments and runs the steps: [`search`] fits the baseline and the
+//! catalogue's effects on the records of [`data`] (where the baseline misfits: [`regimes`]
+//! and [`spectrum`]; whether an effect is real: [`verdict`]), [`report`] says what was
+//! found, [`plot`] draws it.
+
+mod data;
+mod plot;
+mod regimes;
+mod report;
+mod search;
+mod spectrum;
+mod verdict;
+
+use crate::csvio::OwnedRecord;
+use crate::fit::FitOptions;
+use crate::output::write_json;
+use anyhow::Result;
+use clap::Args;
+use data::Data;
+use report::DiagnoseReport;
+use std::path::PathBuf;
+
+/// Arguments of `diagnose`.
+#[derive(Args, Debug)]
+pub struct DiagnoseArgs {
+    /// Records to fit on.
+    #[arg(long, required = true, num_args = 1..)]
+    pub train: Vec<PathBuf>,
+    /// Records the fits never see, to judge them on.
+    #[arg(long, required = true, num_args = 1..)]
+    pub holdout: Vec<PathBuf>,
+    #[command(flatten)]
+    pub fit: FitOptions,
+    /// Write the JSON report here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write a PNG plot (measured vs baseline vs with-effect speed, residuals, misfit by
+    /// regime) here.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// Run `diagnose`.
+pub fn run(a: &DiagnoseArgs) -> Result<()> {
+    let train = OwnedRecord::read_all(&a.train)?;
+    let holdout = OwnedRecord::read_all(&a.holdout)?;
+    let with_current =
+        !a.fit.speed_only && train.iter().chain(&holdout).all(|r| r.current.is_some());
+    let data = Data {
+        train,
+        holdout,
+        with_current,
+    };
+    let found = search::search(&data, &a.fit)?;
+    let report = DiagnoseReport::new(&data, &found);
+    print!("{}", report.text());
+    if let Some(path) = &a.json {
+        write_json(path, &report)?;
+    }
+    if let Some(path) = &a.plot {
+        let base = &found.baseline.fit.result.params;
+        let chosen = found.chosen().map(|(_, s)| &s.fit.result.params);
+        plot::plot(path, &data, base, chosen, &report)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,410 @@
+//! The `diagnose` report: what the search found, as JSON and as the text summary printed on
+//! stdout (both read [`DiagnoseReport`]).
+
+use super::data::{Data, Scored};
+use super::regimes::WhereReport;
+use super::search::Search;
+use crate::report::identify::reported_params;
+use crate::report::{estimates, ByParam, Num};
+use motor_id_shared::model::effects::Effect;
+use motor_id_shared::{ModelParams, ParamId};
+use serde::Serialize;
+
+/// The whole `diagnose` report.
+#[derive(Serialize, Debug)]
+pub struct DiagnoseReport {
+    /// The model without effects.
+    pub baseline: Baseline,
+    /// Every effect of the catalogue added to the baseline, best held-out RMSE first.
+    pub effects: Vec<EffectFit>,
+    /// Which effect, if any, and how much it helps.
+    pub verdict: Verdict,
+    /// Where the baseline misfits.
+    #[serde(rename = "where")]
+    pub where_: WhereReport,
+    /// The records.
+    pub data: DataReport,
+    /// Conclusions the data cannot support.
+    pub cannot_support: Vec<String>,
+}
+
+/// The model without effects.
+#[derive(Serialize, Debug)]
+pub struct Baseline {
+    /// Speed RMSE on the training records [rad/s].
+    pub train_rmse: Num,
+    /// Speed RMSE on the held-out records [rad/s].
+    pub holdout_rmse: Num,
+    /// Parameters, as `identify` reports them.
+    pub params: ByParam<Num>,
+    /// Measured speed noise of the training records [rad/s].
+    pub noise_train: Num,
+    /// Measured speed noise of the held-out records [rad/s].
+    pub noise_holdout: Num,
+}
+
+/// One effect added to the baseline and refitted.
+#[derive(Serialize, Debug)]
+pub struct EffectFit {
+    /// The effect.
+    pub name: &'static str,
+    /// Speed RMSE on the training records [rad/s].
+    pub train_rmse: Num,
+    /// Speed RMSE on the held-out records [rad/s].
+    pub holdout_rmse: Num,
+    /// The motor's and the effect's parameters.
+    pub params: ByParam<Num>,
+    /// Standard deviation of the effect's free parameters.
+    pub effect_std: ByParam<Option<Num>>,
+    /// Whether it passes the significance rule against the baseline.
+    pub significant: bool,
+}
+
+/// Which effect, if any, and how much it helps.
+#[derive(Serialize, Debug)]
+pub struct Verdict {
+    /// The effect (`null`: none passes the significance rule).
+    pub effect: Option<&'static str>,
+    /// Held-out speed RMSE of the baseline [rad/s].
+    pub holdout_rmse_before: Num,
+    /// Held-out speed RMSE with the effect [rad/s].
+    pub holdout_rmse_after: Num,
+    /// Training speed RMSE of the baseline [rad/s].
+    pub train_rmse_before: Num,
+    /// Training speed RMSE with the effect [rad/s].
+    pub train_rmse_after: Num,
+    /// Share of the held-out misfit above noise that the effect removes.
+    pub share_of_misfit_removed: Num,
+    /// Measured speed noise of the held-out records [rad/s].
+    pub holdout_noise: Num,
+    /// The effect's fit, when there is an effect.
+    #[serde(flatten)]
+    pub chosen: Option<Chosen>,
+    /// A second effect on top of the first.
+    pub second: Second,
+}
+
+/// The verdict's effect as fitted.
+#[derive(Serialize, Debug)]
+pub struct Chosen {
+    /// The effect's parameters.
+    pub effect_params: ByParam<Num>,
+    /// Their standard deviations.
+    pub effect_std: ByParam<Option<Num>>,
+    /// Relative change of the motor parameters from the baseline's.
+    pub base_params_shift: ByParam<Num>,
+}
+
+/// A second effect on top of the first (`effect: null` when none passes the rule).
+#[derive(Serialize, Debug)]
+pub struct Second {
+    /// The effect.
+    pub effect: Option<&'static str>,
+    /// Its fit, when there is one.
+    #[serde(flatten)]
+    pub fit: Option<SecondFit>,
+}
+
+/// The second effect's fit.
+#[derive(Serialize, Debug)]
+pub struct SecondFit {
+    /// Held-out speed RMSE with both effects [rad/s].
+    pub holdout_rmse_after: Num,
+    /// Training speed RMSE with both effects [rad/s].
+    pub train_rmse_after: Num,
+    /// The second effect's parameters.
+    pub effect_params: ByParam<Num>,
+}
+
+/// The records.
+#[derive(Serialize, Debug)]
+pub struct DataReport {
+    /// Whether current was fitted.
+    pub current: bool,
+    /// Training record files.
+    pub train: Vec<String>,
+    /// Held-out record files.
+    pub holdout: Vec<String>,
+}
+
+/// `ids` of `p`.
+fn values(p: &ModelParams, ids: &[ParamId]) -> ByParam<Num> {
+    ids.iter().map(|&id| (id, Num(p.get(id)))).collect()
+}
+
+/// Relative change of each motor parameter from `base` to `after`.
+fn motor_shift(base: &ModelParams, after: &ModelParams) -> ByParam<Num> {
+    ParamId::MOTOR
+        .into_iter()
+        .map(|id| (id, Num(after.get(id) / base.get(id) - 1.0)))
+        .collect()
+}
+
+/// Standard deviations of `effect`'s free parameters in `s`.
+fn effect_std(s: &Scored, effect: Effect) -> ByParam<Option<Num>> {
+    let all = estimates(&s.fit.result.identifiability);
+    all.iter()
+        .filter(|(id, _)| effect.params().contains(id))
+        .map(|(id, e)| (*id, e.std))
+        .collect()
+}
+
+/// Share of the misfit above `noise` that going from `before` to `after` removes, in [0, 1].
+fn share_removed(before: f32, after: f32, noise: f32) -> f32 {
+    let (b2, a2, n2) = (before.powi(2), after.powi(2), noise.powi(2));
+    let excess = (b2 - n2).max(f32::MIN_POSITIVE);
+    ((b2 - a2) / excess).clamp(0.0, 1.0)
+}
+
+impl DiagnoseReport {
+    /// The report of `search` on `data`.
+    pub fn new(data: &Data, search: &Search) -> DiagnoseReport {
+        let baseline = &search.baseline;
+        let holdout_noise = search.holdout.noise;
+        let first = search.first;
+        let effects = search
+            .scored
+            .iter()
+            .map(|(e, s)| EffectFit {
+                name: e.name(),
+                train_rmse: Num(s.train_rmse),
+                holdout_rmse: Num(s.holdout_rmse),
+                params: values(
+                    &s.fit.result.params,
+                    &[&ParamId::MOTOR[..], e.params()].concat(),
+                ),
+                effect_std: effect_std(s, *e),
+                significant: first == Some(*e) || search.significant(*e, s),
+            })
+            .collect();
+        let chosen = search.chosen();
+        let after = chosen.map_or(baseline, |(_, s)| s);
+        let verdict = Verdict {
+            effect: first.map(|e| e.name()),
+            holdout_rmse_before: Num(baseline.holdout_rmse),
+            holdout_rmse_after: Num(after.holdout_rmse),
+            train_rmse_before: Num(baseline.train_rmse),
+            train_rmse_after: Num(after.train_rmse),
+            share_of_misfit_removed: Num(share_removed(
+                baseline.holdout_rmse,
+                after.holdout_rmse,
+                holdout_noise,
+            )),
+            holdout_noise: Num(holdout_noise),
+            chosen: chosen.map(|(e, s)| Chosen {
+                effect_params: values(&s.fit.result.params, e.params()),
+                effect_std: effect_std(s, *e),
+                base_params_shift: motor_shift(&baseline.fit.result.params, &s.fit.result.params),
+            }),
+            second: Second {
+                effect: search.second.as_ref().map(|(e, _)| e.name()),
+                fit: search.second.as_ref().map(|(e, s)| SecondFit {
+                    holdout_rmse_after: Num(s.holdout_rmse),
+                    train_rmse_after: Num(s.train_rmse),
+                    effect_params: values(&s.fit.result.params, e.params()),
+                }),
+            },
+        };
+        DiagnoseReport {
+            baseline: Baseline {
+                train_rmse: Num(baseline.train_rmse),
+                holdout_rmse: Num(baseline.holdout_rmse),
+                params: reported_params(&baseline.fit.result, &baseline.fit.spec),
+                noise_train: Num(baseline.fit.result.sigma_omega),
+                noise_holdout: Num(holdout_noise),
+            },
+            effects,
+            verdict,
+            where_: search.where_.clone(),
+            data: DataReport {
+                current: data.with_current,
+                train: data.train.iter().map(|r| r.name()).collect(),
+                holdout: data.holdout.iter().map(|r| r.name()).collect(),
+            },
+            cannot_support: data.cannot_support(baseline, chosen),
+        }
+    }
+
+    /// The text summary printed on stdout.
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        s += &format!(
+            "baseline: train rmse {:.4}, holdout rmse {:.4} rad/s (holdout noise {:.4})\n",
+            self.baseline.train_rmse.decimal(),
+            self.baseline.holdout_rmse.decimal(),
+            self.verdict.holdout_noise.decimal()
+        );
+        s += "where:\n";
+        for line in &self.where_.summary {
+            s += &format!("  {line}\n");
+        }
+        s += "effects, best held-out rmse first:\n";
+        for e in &self.effects {
+            s += &format!(
+                "  {:<18} train {:.4}  holdout {:.4}{}\n",
+                e.name,
+                e.train_rmse.decimal(),
+                e.holdout_rmse.decimal(),
+                if e.significant { "  significant" } else { "" }
+            );
+        }
+        let v = &self.verdict;
+        match (v.effect, &v.chosen) {
+            (Some(name), Some(chosen)) => {
+                let params = serde_json::to_string(&chosen.effect_params)
+                    .expect("parameters always serialise");
+                s += &format!(
+                    "verdict: {name}: holdout rmse {:.4} -> {:.4} rad/s ({:.0} % of the misfit above noise removed), params {params}\n",
+                    v.holdout_rmse_before.decimal(),
+                    v.holdout_rmse_after.decimal(),
+                    100.0 * v.share_of_misfit_removed.decimal(),
+                );
+                if let (Some(second), Some(fit)) = (v.second.effect, &v.second.fit) {
+                    s += &format!(
+                        "then: {second}: holdout rmse -> {:.4} rad/s\n",
+                        fit.holdout_rmse_after.decimal()
+                    );
+                }
+            }
+            _ => s +=
+                "verdict: null (no effect of the catalogue improves the held-out fit significantly)\n",
+        }
+        for c in &self.cannot_support {
+            s += &format!("note: {c}\n");
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::commands::diagnose::regimes::Spectrum;
+
+    fn effect(name: &'static str, holdout: f32, significant: bool) -> EffectFit {
+        EffectFit {
+            name,
+            train_rmse: Num(0.5),
+            holdout_rmse: Num(holdout),
+            params: ByParam(vec![]),
+            effect_std: ByParam(vec![]),
+            significant,
+        }
+    }
+
+    /// A report whose verdict is `tc = 0.1`, with `second` on top when given.
+    fn report(second: Option<&'static str>) -> DiagnoseReport {
+        DiagnoseReport {
+            baseline: Baseline {
+                train_rmse: Num(0.61234),
+                holdout_rmse: Num(0.7),
+                params: ByParam(vec![]),
+                noise_train: Num(0.2),
+                noise_holdout: Num(0.25),
+            },
+            effects: vec![
+                effect("coulomb_friction", 0.3, true),
+                effect("sensor_delay", 0.69, false),
+            ],
+            verdict: Verdict {
+                effect: Some("coulomb_friction"),
+                holdout_rmse_before: Num(0.7),
+                holdout_rmse_after: Num(0.3),
+                train_rmse_before: Num(0.61234),
+                train_rmse_after: Num(0.5),
+                share_of_misfit_removed: Num(share_removed(0.7, 0.3, 0.25)),
+                holdout_noise: Num(0.25),
+                chosen: Some(Chosen {
+                    effect_params: ByParam(vec![(ParamId::Tc, Num(0.1))]),
+                    effect_std: ByParam(vec![(ParamId::Tc, None)]),
+                    base_params_shift: ByParam(vec![]),
+                }),
+                second: Second {
+                    effect: second,
+                    fit: second.map(|_| SecondFit {
+                        holdout_rmse_after: Num(0.26),
+                        train_rmse_after: Num(0.21),
+                        effect_params: ByParam(vec![(ParamId::Kq, Num(4e-6))]),
+                    }),
+                },
+            },
+            where_: WhereReport {
+                rmse: 0.6,
+                noise: 0.2,
+                regimes: vec![],
+                records: vec![],
+                signatures: vec![],
+                spectrum: Spectrum {
+                    order_cycles_per_rev: 1,
+                    share_of_residual: 0.0,
+                    points_to: "tacho_ripple",
+                },
+                summary: vec!["50 % of the misfit lies in reverse rotation".into()],
+            },
+            data: DataReport {
+                current: true,
+                train: vec!["a.csv".into()],
+                holdout: vec!["b.csv".into()],
+            },
+            cannot_support: vec!["something".into()],
+        }
+    }
+
+    #[test]
+    fn share_removed_is_relative_to_the_misfit_above_noise() {
+        assert_eq!(share_removed(2.0, 1.0, 1.0), 1.0);
+        assert!((share_removed(2.0, 1.5, 1.0) - (4.0 - 2.25) / 3.0).abs() < 1e-6);
+        assert_eq!(share_removed(1.0, 2.0, 0.5), 0.0);
+        // Fitted to the noise already: nothing above it to remove.
+        assert_eq!(share_removed(0.5, 0.5, 0.5), 0.0);
+    }
+
+    #[test]
+    fn text_reads_the_report() {
+        let text = report(Some("quadratic_load")).text();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "baseline: train rmse 0.6123, holdout rmse 0.7000 rad/s (holdout noise 0.2500)",
+                "where:",
+                "  50 % of the misfit lies in reverse rotation",
+                "effects, best held-out rmse first:",
+                "  coulomb_friction   train 0.5000  holdout 0.3000  significant",
+                "  sensor_delay       train 0.5000  holdout 0.6900",
+                "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s (94 % of the misfit \
+                 above noise removed), params {\"tc\":0.1}",
+                "then: quadratic_load: holdout rmse -> 0.2600 rad/s",
+                "note: something",
+            ]
+        );
+        let without = report(None).text();
+        assert!(!without.contains("then:"));
+    }
+
+    #[test]
+    fn json_has_the_contract_fields() {
+        let json = serde_json::to_value(report(None)).unwrap();
+        let v = &json["verdict"];
+        assert_eq!(v["effect"], "coulomb_friction");
+        assert_eq!(v["effect_params"]["tc"], 0.1);
+        assert!(v["effect_std"]["tc"].is_null());
+        assert_eq!(v["second"], serde_json::json!({ "effect": null }));
+        assert!(json["where"]["summary"].is_array());
+        let with = serde_json::to_value(report(Some("quadratic_load"))).unwrap();
+        assert_eq!(with["verdict"]["second"]["effect_params"]["kq"], 4e-6);
+    }
+
+    #[test]
+    fn a_null_verdict_says_so() {
+        let mut r = report(None);
+        r.verdict.effect = None;
+        r.verdict.chosen = None;
+        let json = serde_json::to_value(&r).unwrap();
+        assert!(json["verdict"]["effect"].is_null());
+        assert!(json["verdict"].get("effect_params").is_none());
+        assert!(r
+            .text()
+            .contains("verdict: null (no effect of the catalogue improves"));
+    }
+}

@@ -1,0 +1,19 @@
+//! `motor-id simulate`: an experiment on a simulated motor, written as record CSV.
+
+use crate::simulation::simulate;
+pub use crate::simulation::SimulateArgs;
+use anyhow::Result;
+
+/// Run `simulate`.
+pub fn run(a: &SimulateArgs) -> Result<()> {
+    let rec = simulate(a)?;
+    rec.write(&a.out)?;
+    eprintln!(
+        "wrote {} samples ({} s at {} Hz) to {}",
+        rec.len(),
+        rec.len() as f64 * rec.dt as f64,
+        a.rate,
+        a.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,122 @@
+//! Fitting records: the options every fitting command shares (`FitOptions`), the pipelines by
+//! name (`PipelineArg`), and one identification run with its progress bar (`Fit`).
+
+use crate::csvio::OwnedRecord;
+use crate::progress::FitProgress;
+use crate::spec::problem;
+use anyhow::{anyhow, Result};
+use clap::Args;
+use motor_id_shared::fit::identify::{identify_from, Identification, IdentifyConfig, Pipeline};
+use motor_id_shared::fit::space::ProblemSpec;
+use motor_id_shared::wire::protocol::PipelineName;
+use motor_id_shared::ModelParams;
+use std::ops::ControlFlow;
+
+/// Options shared by the fitting commands.
+#[derive(Args, Debug, Clone, Default)]
+pub struct FitOptions {
+    /// Search bounds, e.g. `ra=0.5:10,j=1e-6:1e-3` (default: seed Table 1). Bounds on an
+    /// effect parameter (e.g. `tc=0:0.1`) fit that effect.
+    #[arg(long, value_name = "P=LO:HI,...")]
+    pub bounds: Vec<String>,
+    /// Hold parameters at known values, e.g. `ra=3.4,la=0.00285`.
+    #[arg(long, value_name = "P=V,...")]
+    pub fix: Vec<String>,
+    /// Random seed (same seed and data, same result).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Ignore the current column (fit speed only, as the seed does).
+    #[arg(long)]
+    pub speed_only: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The pipelines by name (`motor_id_shared::fit::identify::Pipeline`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PipelineArg {
+    /// Equation-error start, short FFO, least squares.
+    Default,
+    /// Start and least squares; FFO only above the noise floor (the board's).
+    Board,
+    /// The seed's FFO alone.
+    Paper,
+}
+
+impl From<PipelineArg> for PipelineName {
+    fn from(p: PipelineArg) -> PipelineName {
+        match p {
+            PipelineArg::Default => PipelineName::Default,
+            PipelineArg::Board => PipelineName::Board,
+            PipelineArg::Paper => PipelineName::Paper,
+        }
+    }
+}
+
+impl From<PipelineArg> for Pipeline {
+    fn from(p: PipelineArg) -> Pipeline {
+        match p {
+            PipelineArg::Default => Pipeline::Default,
+            PipelineArg::Board => Pipeline::Board,
+            PipelineArg::Paper => Pipeline::Paper,
+        }
+    }
+}
+
+/// Everything one identification produced.
+pub struct Fit {
+    /// Problem solved.
+    pub spec: ProblemSpec,
+    /// Result.
+    pub result: Identification,
+    /// Whether current was fitted.
+    pub with_current: bool,
+}
+
+/// Identify from loaded records with the problem given on the command line.
+pub fn fit(records: &[OwnedRecord], opts: &FitOptions, pipeline: Pipeline) -> Result<Fit> {
+    let spec = problem(&opts.bounds, &opts.fix)?;
+    run_fit(records, opts, &spec, &pipeline.config(opts.seed), None)
+}
+
+/// Identify `spec` from loaded records with the default pipeline, starting from `initial`
+/// when given.
+pub fn fit_from(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    initial: Option<&ModelParams>,
+) -> Result<Fit> {
+    run_fit(
+        records,
+        opts,
+        spec,
+        &IdentifyConfig::default_pipeline(opts.seed),
+        initial,
+    )
+}
+
+fn run_fit(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    cfg: &IdentifyConfig,
+    initial: Option<&ModelParams>,
+) -> Result<Fit> {
+    let spec = *spec;
+    let with_current = !opts.speed_only && records.iter().all(|r| r.current.is_some());
+    let borrowed = OwnedRecord::as_records(records, with_current);
+    let bar = FitProgress::new(opts.quiet);
+    let result = identify_from(&borrowed, &spec, cfg, initial, |p| {
+        bar.update(p);
+        ControlFlow::Continue(())
+    });
+    bar.finish();
+    let result = result.map_err(|e| anyhow!("identification failed: {e}"))?;
+    Ok(Fit {
+        spec,
+        result,
+        with_current,
+    })
+}

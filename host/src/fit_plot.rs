@@ -1,0 +1,93 @@
+//! The plot of one fit: measured vs fitted speed, the residual, and the convergence trace.
+
+use crate::csvio::OwnedRecord;
+use crate::fit::Fit;
+use crate::plot::{draw, Panel, Series};
+use anyhow::{anyhow, Result};
+use motor_id_shared::fit::objective::Objective;
+use plotters::style::{RGBColor, BLUE, RED};
+use std::path::Path;
+
+/// Measured vs fitted speed, residual, convergence.
+pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
+    let borrowed = OwnedRecord::as_records(records, f.with_current);
+    let objective = Objective::new(&borrowed).map_err(|e| anyhow!("{e}"))?;
+    // Records side by side on one time axis.
+    let (mut t, mut measured, mut fitted, mut residual) = (vec![], vec![], vec![], vec![]);
+    let mut offset = 0.0;
+    for (k, r) in records.iter().enumerate() {
+        let mut w = vec![0.0; r.len()];
+        let mut i = vec![0.0; r.len()];
+        objective
+            .simulate(&f.result.params, k, &mut w, &mut i)
+            .map_err(|e| anyhow!("{e}"))?;
+        for (s, (&m, &sim)) in r.omega.iter().zip(w.iter()).enumerate() {
+            t.push(offset + s as f64 * r.dt as f64);
+            measured.push(m);
+            fitted.push(sim);
+            residual.push(m - sim);
+        }
+        offset += r.len() as f64 * r.dt as f64;
+    }
+    let evals: Vec<f64> = f
+        .result
+        .trace
+        .iter()
+        .map(|p| p.evaluations as f64)
+        .collect();
+    let best: Vec<f32> = f.result.trace.iter().map(|p| p.best).collect();
+    let green = RGBColor(0, 140, 0);
+    let panels = [
+        Panel {
+            title: format!(
+                "speed: measured vs fitted (rmse {:.4} rad/s)",
+                f.result.cost.rmse_omega
+            ),
+            x_label: "t [s] (records side by side)",
+            y_label: "omega [rad/s]",
+            series: vec![
+                Series {
+                    label: "measured",
+                    x: &t,
+                    y: &measured,
+                    color: BLUE,
+                },
+                Series {
+                    label: "fitted",
+                    x: &t,
+                    y: &fitted,
+                    color: RED,
+                },
+            ],
+            log_y: false,
+            categories: None,
+        },
+        Panel {
+            title: "residual (measured - fitted)".into(),
+            x_label: "t [s]",
+            y_label: "omega error [rad/s]",
+            series: vec![Series {
+                label: "residual",
+                x: &t,
+                y: &residual,
+                color: green,
+            }],
+            log_y: false,
+            categories: None,
+        },
+        Panel {
+            title: "convergence (seed Fig. 10)".into(),
+            x_label: "model evaluations",
+            y_label: "best fitness [rad/s]",
+            series: vec![Series {
+                label: "best",
+                x: &evals,
+                y: &best,
+                color: BLUE,
+            }],
+            log_y: true,
+            categories: None,
+        },
+    ];
+    draw(path, &panels)
+}
