@@ -20,6 +20,11 @@ pub const FULL: bool = cfg!(any(test, feature = "full"));
 /// motor parameters and `tc`).
 pub const MAX_FREE: usize = if FULL { PARAM_COUNT } else { 6 };
 
+/// Effect parameters a simulator holds, from the first (`tc`) on in [`crate::ParamId`]
+/// order (host: every effect's; board: Coulomb friction's `tc`, which commissioning fits;
+/// a simulator is copied a dozen times into every Jacobian, so a board keeps it small).
+pub const SIM_EFFECT_PARAMS: usize = if FULL { PARAM_COUNT - 5 } else { 1 };
+
 /// Largest FFO population (host: the seed's 4 x 25; board: the default pipeline's 2 x 8).
 pub const MAX_POPULATION: usize = if FULL { 100 } else { 16 };
 

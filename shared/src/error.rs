@@ -38,6 +38,9 @@ pub enum Error {
     DelayTooLong,
     /// A record's coast-down starts beyond its last sample.
     CoastOutsideRecord,
+    /// An effect that this build's simulator does not hold is on (a board simulates the
+    /// five motor parameters and Coulomb friction; see `crate::capacity`).
+    EffectNotInBuild(ParamId),
 }
 
 impl fmt::Display for Error {
@@ -72,6 +75,11 @@ impl fmt::Display for Error {
                 crate::capacity::MAX_DELAY_SAMPLES
             ),
             Error::CoastOutsideRecord => f.write_str("the coast-down must start within the record"),
+            Error::EffectNotInBuild(p) => write!(
+                f,
+                "effect parameter {} is not simulated by this build",
+                p.name()
+            ),
         }
     }
 }

@@ -35,10 +35,23 @@ pub enum ParamId {
     RippleCycles,
     /// Ripple phase [rad] (`tacho_ripple`).
     RipplePhase,
+    /// Break-away excess over the Coulomb torque [N m] (`static_friction`).
+    Ts,
+    /// Stribeck speed over which the break-away excess fades [rad/s] (`static_friction`).
+    Ws,
+    /// Half the difference of the Coulomb torque forward and backward [N m]
+    /// (`asymmetric_friction`).
+    Ta,
+    /// Dead-time voltage error of the bridge [V] (`bridge_deadtime`).
+    Vdt,
+    /// Current band over which the dead-time error changes sign [A] (`bridge_deadtime`).
+    Ib,
+    /// Current sensor offset [A] (`current_offset`).
+    Io,
 }
 
 /// Number of parameters in [`ParamId::ALL`].
-pub const PARAM_COUNT: usize = 13;
+pub const PARAM_COUNT: usize = 19;
 
 impl ParamId {
     /// All parameters, in storage order.
@@ -56,6 +69,12 @@ impl ParamId {
         ParamId::RippleAmp,
         ParamId::RippleCycles,
         ParamId::RipplePhase,
+        ParamId::Ts,
+        ParamId::Ws,
+        ParamId::Ta,
+        ParamId::Vdt,
+        ParamId::Ib,
+        ParamId::Io,
     ];
     /// The five motor parameters of seed Eq. 5, in the order (Ra, La, J, B, Kv).
     pub const MOTOR: [ParamId; 5] = [

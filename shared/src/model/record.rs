@@ -2,6 +2,7 @@
 //! from it: the initial state and a noise estimate.
 
 use crate::error::Error;
+use crate::model::effects::friction::FrictionLaw;
 use crate::model::params::ModelParams;
 use crate::model::sim::{sign, InitialState, Simulator, StepInput};
 use crate::param_id::ParamId;
@@ -117,7 +118,8 @@ impl<'a> Record<'a> {
         if omega.abs() <= 3.0 * sigma_omega {
             omega = 0.0;
         }
-        let friction = p.get(ParamId::Tc) * sign(omega) + p.get(ParamId::Kq) * omega * omega.abs();
+        let friction = FrictionLaw::of(p).opposition(sign(omega), omega)
+            + p.get(ParamId::Kq) * omega * omega.abs();
         let equilibrium =
             (p.get(ParamId::B) * omega + friction + self.load_at(0)) / p.get(ParamId::Kv);
         let current = match (self.current, sigma_current) {

@@ -9,10 +9,13 @@
 //! The state is kept as a compensated (two-sum) f32 pair so that slow modes at high sample
 //! rates do not stall on f32 rounding.
 
+use crate::capacity::SIM_EFFECT_PARAMS;
 use crate::error::Error;
 use crate::model::discretise::Discrete;
+use crate::model::effects::friction::FrictionLaw;
 use crate::model::effects::{
-    armature_reaction, brush_drop, coulomb_friction, quadratic_load, sensor_delay, tacho_ripple,
+    armature_reaction, bridge_deadtime, brush_drop, current_offset, quadratic_load, sensor_delay,
+    tacho_ripple, SWITCHES,
 };
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
@@ -139,19 +142,20 @@ fn stick_on_crossing(before: f32, opposition: f32, state: &mut Compensated, stuc
     }
 }
 
+/// Position of the first held effect parameter (`tc`) in [`ParamId::ALL`].
+const FIRST_HELD: usize = ParamId::MOTOR.len();
+
 /// A running simulation of one parameter set at one sample step.
 #[derive(Clone, Debug)]
 pub struct Simulator {
     disc: Discrete,
     dt: f32,
     kv: f32,
-    tc: f32,
-    kq: f32,
-    kar: f32,
-    vb: f32,
-    ripple_amp: f32,
-    ripple_cycles: f32,
-    ripple_phase: f32,
+    /// The effect parameters this build holds ([`SIM_EFFECT_PARAMS`] of them, from `tc` on
+    /// in [`ParamId`] order); read through [`Simulator::effect`].
+    held: [f32; SIM_EFFECT_PARAMS],
+    /// A friction effect acts on the shaft (its dead zone, see [`Simulator::friction`]).
+    friction: bool,
     /// Delay in samples, split into whole samples and fraction.
     delay_whole: u8,
     delay_frac: f32,
@@ -163,8 +167,8 @@ pub struct Simulator {
     /// `linear` and the bridge closed: [`Simulator::step`] takes the plain linear step (the
     /// same arithmetic as the general one with every effect at zero).
     plain: bool,
-    /// No effect but Coulomb friction (if any): a turning shaft takes
-    /// [`Simulator::step_friction`].
+    /// No effect on the dynamics or the reading's shape but Coulomb friction (if any): a
+    /// turning shaft takes [`Simulator::step_friction`].
     friction_only: bool,
     /// The bridge is open (coast-down): no armature current, the voltage is not applied.
     open: bool,
@@ -188,27 +192,39 @@ impl Simulator {
         let disc = Discrete::new(p, dt)?;
         let (delay_whole, delay_frac) =
             sensor_delay::in_samples(p.get(ParamId::Td), dt).ok_or(Error::DelayTooLong)?;
-        let (tc, kq, kar, vb) = (
-            p.get(ParamId::Tc),
-            p.get(ParamId::Kq),
-            p.get(ParamId::Kar),
-            p.get(ParamId::Vb),
-        );
-        let ripple_amp = p.get(ParamId::RippleAmp);
+        // An effect this build's simulator does not hold must be off.
+        for id in SWITCHES {
+            if id.index() >= FIRST_HELD + SIM_EFFECT_PARAMS && p.get(id) != 0.0 {
+                return Err(Error::EffectNotInBuild(id));
+            }
+        }
+        let mut held = [0.0; SIM_EFFECT_PARAMS];
+        for (k, v) in held.iter_mut().enumerate() {
+            *v = p.get(ParamId::ALL[FIRST_HELD + k]);
+        }
+        let on = |id: ParamId| p.get(id) != 0.0;
         let delayed = delay_whole != 0 || delay_frac != 0.0;
-        let friction_only = kq == 0.0 && kar == 0.0 && vb == 0.0 && ripple_amp == 0.0;
-        let linear = tc == 0.0 && friction_only;
+        let friction = on(ParamId::Tc) || on(ParamId::Ts) || on(ParamId::Ta);
+        // Effects on the dynamics or the reading's shape other than Coulomb friction (a
+        // delay only shifts the reading: the fast paths push through the delay line).
+        let others = [
+            ParamId::Kq,
+            ParamId::Kar,
+            ParamId::Vb,
+            ParamId::RippleAmp,
+            ParamId::Ts,
+            ParamId::Ta,
+            ParamId::Vdt,
+            ParamId::Io,
+        ];
+        let friction_only = !others.into_iter().any(on);
+        let linear = !on(ParamId::Tc) && friction_only;
         let mut s = Simulator {
             disc,
             dt,
             kv: p.get(ParamId::Kv),
-            tc,
-            kq,
-            kar,
-            vb,
-            ripple_amp,
-            ripple_cycles: p.get(ParamId::RippleCycles),
-            ripple_phase: p.get(ParamId::RipplePhase),
+            held,
+            friction,
             delay_whole,
             delay_frac,
             delayed,
@@ -235,8 +251,8 @@ impl Simulator {
         self.current = Compensated::new(init.current);
         self.omega = Compensated::new(init.omega);
         self.psi = 0.0;
-        self.shaft_stuck = self.tc > 0.0 && init.omega == 0.0;
-        self.current_stuck = self.vb > 0.0 && init.current == 0.0;
+        self.shaft_stuck = self.friction && init.omega == 0.0;
+        self.current_stuck = self.effect(ParamId::Vb) > 0.0 && init.current == 0.0;
         self.open = false;
         self.plain = self.linear;
         self.head = 0;
@@ -244,9 +260,34 @@ impl Simulator {
         self.push_reading();
     }
 
+    /// Effect parameter `id` (0 for one this build does not hold: a constant).
+    #[inline(always)]
+    fn effect(&self, id: ParamId) -> f32 {
+        match self.held.get(id.index() - FIRST_HELD) {
+            Some(v) => *v,
+            None => 0.0,
+        }
+    }
+
+    /// The shaft's friction law: the opposing torque for a motion in `direction` at speed
+    /// `w` (Coulomb, with its static and asymmetric extensions).
+    #[inline(always)]
+    fn friction_law(&self) -> FrictionLaw {
+        FrictionLaw {
+            tc: self.effect(ParamId::Tc),
+            ts: self.effect(ParamId::Ts),
+            ws: self.effect(ParamId::Ws),
+            ta: self.effect(ParamId::Ta),
+        }
+    }
+
     #[inline(always)]
     fn tacho_now(&self) -> f32 {
-        tacho_ripple::reading(self.ripple_amp, self.ripple_phase, self.omega.hi, self.psi)
+        let (amp, phase) = (
+            self.effect(ParamId::RippleAmp),
+            self.effect(ParamId::RipplePhase),
+        );
+        tacho_ripple::reading(amp, phase, self.omega.hi, self.psi)
     }
 
     #[inline(always)]
@@ -283,14 +324,14 @@ impl Simulator {
         };
         Reading {
             omega,
-            current: self.current.hi,
+            current: current_offset::reading(self.effect(ParamId::Io), self.current.hi),
         }
     }
 
     /// True when the tacho ripple follows the rotor angle: [`Simulator::apply`] then uses
     /// the measured speed it is given (otherwise it is ignored).
     pub fn tracks_angle(&self) -> bool {
-        self.ripple_amp != 0.0
+        self.effect(ParamId::RippleAmp) != 0.0
     }
 
     /// True shaft speed (no sensor effects).
@@ -317,7 +358,7 @@ impl Simulator {
         if self.open {
             self.open = false;
             self.plain = self.linear;
-            self.current_stuck = self.vb > 0.0;
+            self.current_stuck = self.effect(ParamId::Vb) > 0.0;
         }
     }
 
@@ -398,7 +439,8 @@ impl Simulator {
         // `coulomb_friction::torque(tc, sign(w0))` with w0 non-zero and not NaN (see
         // `step_nonlinear`), without the multiplication by +-1 (the same bits).
         let forward = w0 > 0.0;
-        let friction = if forward { self.tc } else { -self.tc };
+        let tc = self.effect(ParamId::Tc);
+        let friction = if forward { tc } else { -tc };
         let load = tl + friction;
         if self.open {
             self.mechanical_update(w0, load);
@@ -408,7 +450,7 @@ impl Simulator {
         // `stick_on_crossing`: a speed that no longer has the sign of w0 sticks at zero.
         let w1 = self.omega.hi;
         let kept = if forward { w1 > 0.0 } else { w1 < 0.0 };
-        if self.tc > 0.0 && !kept {
+        if tc > 0.0 && !kept {
             self.omega.set(0.0);
             self.shaft_stuck = true;
         }
@@ -422,15 +464,20 @@ impl Simulator {
         let w0 = self.omega.hi;
         // Armature reaction as held inputs: the linear part uses kv; the flux loss adds
         // back (1 - flux) kv w to the voltage and removes (1 - flux) kv i of torque.
-        let dkv = armature_reaction::lost_constant(self.kar, self.kv, i0);
+        let dkv = armature_reaction::lost_constant(self.effect(ParamId::Kar), self.kv, i0);
         let mut volts = v + dkv * w0;
-        let mut load = tl + dkv * i0 + quadratic_load::torque(self.kq, w0);
+        let mut load = tl + dkv * i0 + quadratic_load::torque(self.effect(ParamId::Kq), w0);
+        let vdt = self.effect(ParamId::Vdt);
+        if vdt != 0.0 {
+            volts -= bridge_deadtime::voltage(vdt, self.effect(ParamId::Ib), i0);
+        }
+        let vb = self.effect(ParamId::Vb);
         let mut brush = 0.0;
         let mut friction = 0.0;
         let current_moves = if self.open {
             false
-        } else if self.vb > 0.0 {
-            let law = |direction| brush_drop::voltage(self.vb, direction);
+        } else if vb > 0.0 {
+            let law = |direction| brush_drop::voltage(vb, direction);
             match dead_zone_opposition(i0, volts - self.kv * w0, law, &mut self.current_stuck) {
                 Some(o) => {
                     brush = o;
@@ -441,8 +488,9 @@ impl Simulator {
         } else {
             true
         };
-        let shaft_moves = if self.tc > 0.0 {
-            let law = |direction| coulomb_friction::torque(self.tc, direction);
+        let shaft_moves = if self.friction {
+            let friction_law = self.friction_law();
+            let law = |direction| friction_law.opposition(direction, w0);
             match dead_zone_opposition(w0, self.kv * i0 - load, law, &mut self.shaft_stuck) {
                 Some(o) => {
                     friction = o;
@@ -461,15 +509,16 @@ impl Simulator {
             (false, true) => self.mechanical_update(w0, load),
             (false, false) => {}
         }
-        if current_moves && self.vb > 0.0 {
+        if current_moves && vb > 0.0 {
             stick_on_crossing(i0, brush, &mut self.current, &mut self.current_stuck);
         }
-        if shaft_moves && self.tc > 0.0 {
+        if shaft_moves && self.friction {
             stick_on_crossing(w0, friction, &mut self.omega, &mut self.shaft_stuck);
         }
-        if self.ripple_amp != 0.0 {
+        if self.tracks_angle() {
             let rate = measured_omega.unwrap_or(0.5 * (w0 + self.omega.hi));
-            self.psi = tacho_ripple::advance(self.psi, self.ripple_cycles, rate, self.dt);
+            let cycles = self.effect(ParamId::RippleCycles);
+            self.psi = tacho_ripple::advance(self.psi, cycles, rate, self.dt);
         }
         self.push_reading();
     }

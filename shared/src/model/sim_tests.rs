@@ -172,3 +172,97 @@ proptest! {
         }
     }
 }
+
+/// Speed after `seconds` at constant `volts` from rest (step 1 ms).
+fn settled(p: &ModelParams, volts: f32, seconds: f32) -> f32 {
+    let mut sim = Simulator::new(p, 1e-3, InitialState::REST).unwrap();
+    for _ in 0..(seconds * 1e3) as usize {
+        sim.advance(volts, 0.0);
+    }
+    sim.omega()
+}
+
+/// Steady speed of the seed motor against a friction torque `f` at `volts` (seed Eq. 1-4 with
+/// d/dt = 0: Kv (v - Kv w) / Ra = B w + f).
+fn steady_speed(volts: f32, f: f32) -> f32 {
+    let (ra, b, kv) = (3.412f32, 0.00267f32, 0.1604f32);
+    (kv * volts / ra - f) / (b + kv * kv / ra)
+}
+
+#[test]
+fn static_friction_holds_the_shaft_until_break_away_then_slides_at_the_coulomb_torque() {
+    let (tc, ts, ws) = (0.02f32, 0.03f32, 2.0f32);
+    let p = ModelParams::SEED_MOTOR
+        .with(ParamId::Tc, tc)
+        .with(ParamId::Ts, ts)
+        .with(ParamId::Ws, ws);
+    // Stall torque Kv V / Ra: 0.047 N m at 1 V (above tc, below tc + ts): held.
+    assert_eq!(settled(&p, 1.0, 5.0), 0.0);
+    // The same motor with Coulomb friction alone turns at 1 V.
+    let coulomb = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+    assert!(settled(&coulomb, 1.0, 5.0) > 0.0);
+    // At 20 V it breaks away and settles where only the Coulomb torque acts (the excess
+    // has faded: 20 V gives ~100 rad/s, fifty Stribeck speeds).
+    let w = settled(&p, 20.0, 120.0);
+    let want = steady_speed(20.0, tc);
+    assert!((w / want - 1.0).abs() < 1e-3, "{w} vs {want}");
+}
+
+#[test]
+fn asymmetric_friction_slows_one_direction_more_than_the_other() {
+    let (tc, ta) = (0.03f32, 0.01f32);
+    let p = ModelParams::SEED_MOTOR
+        .with(ParamId::Tc, tc)
+        .with(ParamId::Ta, ta);
+    let forward = settled(&p, 20.0, 120.0);
+    let backward = settled(&p, -20.0, 120.0);
+    for (w, want) in [
+        (forward, steady_speed(20.0, tc + ta)),
+        (-backward, steady_speed(20.0, tc - ta)),
+    ] {
+        assert!((w / want - 1.0).abs() < 1e-3, "{w} vs {want}");
+    }
+}
+
+#[test]
+fn bridge_deadtime_takes_its_voltage_but_lets_current_flow_unlike_a_brush_drop() {
+    // 0.5 V applied against a 1 V error: the dead-time error is at most what drives the
+    // current, so a small current still flows (its share of the band); a 1 V brush drop
+    // stops it entirely.
+    let with = |id: ParamId, v: f32| {
+        let mut p = ModelParams::SEED_MOTOR.with(id, v);
+        if id == ParamId::Vdt {
+            p.set(ParamId::Ib, 0.5);
+        }
+        let mut sim = Simulator::new(&p, 1e-3, InitialState::REST).unwrap();
+        for _ in 0..2000 {
+            sim.advance(0.5, 0.0);
+        }
+        sim.reading().current
+    };
+    assert_eq!(with(ParamId::Vb, 1.0), 0.0);
+    let i = with(ParamId::Vdt, 1.0);
+    assert!(i > 0.0 && i < 0.5 / 3.412, "{i}");
+    // At a high voltage the full error acts: the steady speed is that of v - vdt.
+    let p = ModelParams::SEED_MOTOR
+        .with(ParamId::Vdt, 1.0)
+        .with(ParamId::Ib, 0.01);
+    let w = settled(&p, 20.0, 120.0);
+    let want = steady_speed(19.0, 0.0);
+    assert!((w / want - 1.0).abs() < 1e-3, "{w} vs {want}");
+}
+
+#[test]
+fn a_current_offset_shifts_the_current_reading_only() {
+    let p = ModelParams::SEED_MOTOR.with(ParamId::Io, 0.25);
+    let (mut a, mut b) = (
+        Simulator::new(&ModelParams::SEED_MOTOR, 1e-3, InitialState::REST).unwrap(),
+        Simulator::new(&p, 1e-3, InitialState::REST).unwrap(),
+    );
+    for _ in 0..1000 {
+        a.advance(20.0, 0.0);
+        b.advance(20.0, 0.0);
+        assert_eq!(a.reading().omega, b.reading().omega);
+        assert_eq!(a.reading().current + 0.25, b.reading().current);
+    }
+}

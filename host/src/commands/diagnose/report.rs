@@ -241,7 +241,7 @@ impl DiagnoseReport {
         s += "effects, best held-out rmse first:\n";
         for e in &self.effects {
             s += &format!(
-                "  {:<18} train {:.4}  holdout {:.4}{}\n",
+                "  {:<20} train {:.4}  holdout {:.4}{}\n",
                 e.name,
                 e.train_rmse.decimal(),
                 e.holdout_rmse.decimal(),
@@ -370,8 +370,8 @@ mod tests {
                 "where:",
                 "  50 % of the misfit lies in reverse rotation",
                 "effects, best held-out rmse first:",
-                "  coulomb_friction   train 0.5000  holdout 0.3000  significant",
-                "  sensor_delay       train 0.5000  holdout 0.6900",
+                "  coulomb_friction     train 0.5000  holdout 0.3000  significant",
+                "  sensor_delay         train 0.5000  holdout 0.6900",
                 "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s (94 % of the misfit \
                  above noise removed), params {\"tc\":0.1}",
                 "then: quadratic_load: holdout rmse -> 0.2600 rad/s",

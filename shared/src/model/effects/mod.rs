@@ -9,11 +9,16 @@
 //! out of order.
 
 pub mod armature_reaction;
+pub mod asymmetric_friction;
+pub mod bridge_deadtime;
 pub mod brush_drop;
 pub mod coulomb_friction;
+pub mod current_offset;
 pub mod entry;
+pub mod friction;
 pub mod quadratic_load;
 pub mod sensor_delay;
+pub mod static_friction;
 pub mod tacho_ripple;
 
 pub use entry::{EffectBounds, EffectSpec, Scales, Signature, SignatureSample};
@@ -37,27 +42,43 @@ pub enum Effect {
     SensorDelay,
     /// [`tacho_ripple`].
     TachoRipple,
+    /// [`static_friction`] (extends [`coulomb_friction`]).
+    StaticFriction,
+    /// [`asymmetric_friction`] (extends [`coulomb_friction`]).
+    AsymmetricFriction,
+    /// [`bridge_deadtime`].
+    BridgeDeadtime,
+    /// [`current_offset`].
+    CurrentOffset,
 }
 
 /// The catalogue, in the order of [`Effect`].
-pub const CATALOGUE: [&EffectSpec; 6] = [
+pub const CATALOGUE: [&EffectSpec; 10] = [
     &coulomb_friction::SPEC,
     &quadratic_load::SPEC,
     &armature_reaction::SPEC,
     &brush_drop::SPEC,
     &sensor_delay::SPEC,
     &tacho_ripple::SPEC,
+    &static_friction::SPEC,
+    &asymmetric_friction::SPEC,
+    &bridge_deadtime::SPEC,
+    &current_offset::SPEC,
 ];
 
 impl Effect {
     /// The whole catalogue.
-    pub const ALL: [Effect; 6] = [
+    pub const ALL: [Effect; 10] = [
         Effect::CoulombFriction,
         Effect::QuadraticLoad,
         Effect::ArmatureReaction,
         Effect::BrushDrop,
         Effect::SensorDelay,
         Effect::TachoRipple,
+        Effect::StaticFriction,
+        Effect::AsymmetricFriction,
+        Effect::BridgeDeadtime,
+        Effect::CurrentOffset,
     ];
 
     /// Its entry.
@@ -141,6 +162,17 @@ const KEYS: [&str; PARAM_COUNT] = spec_field!(key: &str);
 const UNITS: [&str; PARAM_COUNT] = spec_field!(unit: &str);
 const DEFAULT_BOUNDS: [(f32, f32); PARAM_COUNT] = spec_field!(default_bounds: (f32, f32));
 const PHYSICAL_RANGES: [(f32, f32); PARAM_COUNT] = spec_field!(physical_range: (f32, f32));
+
+/// The parameter that switches each effect on (its first; non-zero: on), in catalogue order.
+pub const SWITCHES: [ParamId; CATALOGUE.len()] = {
+    let mut out = [ParamId::Tc; CATALOGUE.len()];
+    let mut e = 0;
+    while e < CATALOGUE.len() {
+        out[e] = CATALOGUE[e].params[0].id;
+        e += 1;
+    }
+    out
+};
 
 // Effect and CATALOGUE list the entries in the same order.
 const _: () = {
