@@ -37,6 +37,27 @@ impl Search {
             .and_then(|e| self.scored.iter().find(|(x, _)| *x == e))
     }
 
+    /// The effect the data needs of `effect` and the one it extends: the parent, unless
+    /// `effect`'s fit passes the significance rule against the parent's own fit (a nested
+    /// effect that only matches its parent is not named).
+    pub fn needed(&self, effect: Effect) -> Effect {
+        let Some(parent) = effect.parent() else {
+            return effect;
+        };
+        let fit = |e: Effect| self.scored.iter().find(|(x, _)| *x == e).map(|(_, s)| s);
+        match (fit(effect), fit(parent)) {
+            (Some(child), Some(parent_fit)) if self.significant(parent, parent_fit) => {
+                let candidate = child.candidate(effect, &self.scales);
+                if significant(&parent_fit.reference(), &candidate, &self.holdout) {
+                    effect
+                } else {
+                    parent
+                }
+            }
+            _ => effect,
+        }
+    }
+
     /// Whether `effect`'s fit passes the significance rule against the baseline.
     pub fn significant(&self, effect: Effect, s: &Scored) -> bool {
         let candidate = s.candidate(effect, &self.scales);
@@ -98,7 +119,7 @@ pub fn search(data: &Data, opts: &FitOptions) -> Result<Search> {
         .scored
         .iter()
         .find(|(e, s)| found.significant(*e, s))
-        .map(|(e, _)| *e);
+        .map(|(e, _)| found.needed(*e));
 
     // A second effect, on what is left after the first.
     let mut second: Option<(Effect, Scored)> = None;
@@ -124,8 +145,8 @@ pub fn search(data: &Data, opts: &FitOptions) -> Result<Search> {
     Ok(found)
 }
 
-/// `spec` with `effect` free within bounds scaled to `base` (user bounds or fixes on its
-/// parameters are kept); for the tacho ripple the number of cycles is the order found in the
+/// `spec` with `effect` free within bounds scaled to `base`, and the effect it extends with
+/// it (user bounds or fixes on their parameters are kept); for the tacho ripple the number of cycles is the order found in the
 /// residual, held fixed (the phase and amplitude are fitted).
 fn with_effect(
     spec: &ProblemSpec,
@@ -136,7 +157,9 @@ fn with_effect(
 ) -> Result<ProblemSpec> {
     let mut s = *spec;
     s.base = *base;
-    for (id, lo, hi) in effect.bounds(base, scales) {
+    let own = effect.bounds(base, scales);
+    let parents = effect.parent().map(|p| p.bounds(base, scales));
+    for (id, lo, hi) in own.into_iter().chain(parents.into_iter().flatten()) {
         if id == ParamId::RippleCycles {
             if spec.free[id.index()] {
                 continue;
@@ -175,8 +198,10 @@ fn fit_effect(
     }
     let mut alone = *spec;
     alone.base = start;
+    let parent = effect.parent().map_or(&[][..], |p| p.params());
     for id in ParamId::ALL {
-        if !effect.params().contains(&id) && alone.free[id.index()] {
+        let part = effect.params().contains(&id) || parent.contains(&id);
+        if !part && alone.free[id.index()] {
             alone.free[id.index()] = false;
         }
     }

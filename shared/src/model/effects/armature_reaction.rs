@@ -20,6 +20,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
 pub const SPEC: EffectSpec = EffectSpec {
     name: "armature_reaction",
     physics: "flux falls with current: back-EMF and torque constant kv (1 - kar |i|)",
+    extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),
     // Up to 50 % flux loss at the largest current.

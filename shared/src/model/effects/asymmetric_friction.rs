@@ -20,6 +20,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
 pub const SPEC: EffectSpec = EffectSpec {
     name: "asymmetric_friction",
     physics: "Coulomb friction tc + ta forward and tc - ta backward",
+    extends: Some("coulomb_friction"),
     params: &PARAMS,
     ids: &ids(&PARAMS),
     // Up to a quarter of the stall torque either way.

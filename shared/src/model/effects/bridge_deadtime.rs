@@ -33,6 +33,7 @@ const PARAMS: [ParamSpec; 2] = [
 pub const SPEC: EffectSpec = EffectSpec {
     name: "bridge_deadtime",
     physics: "PWM bridge voltage error -vdt clamp(i/ib, -1, 1) against the current",
+    extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),
     // Up to 10 % of the voltage, smoothed over 0.1 % to 30 % of the largest current.

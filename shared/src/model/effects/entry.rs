@@ -14,6 +14,9 @@ pub struct EffectSpec {
     pub name: &'static str,
     /// The physics, in one sentence.
     pub physics: &'static str,
+    /// The effect it extends, by name (its parameters are part of this one's model: a fit
+    /// of this effect frees them too), if any.
+    pub extends: Option<&'static str>,
     /// The parameters it adds; the first one switches the effect on (non-zero).
     pub params: &'static [ParamSpec],
     /// The same parameters' ids ([`ids`] of `params`).

@@ -96,6 +96,11 @@ impl Effect {
         Effect::ALL.iter().copied().find(|e| e.name() == name)
     }
 
+    /// The effect this one extends (its parameters are part of this one's model).
+    pub fn parent(self) -> Option<Effect> {
+        self.spec().extends.and_then(Effect::from_name)
+    }
+
     /// The parameters this effect adds. The first one switches the effect on (non-zero).
     pub const fn params(self) -> &'static [ParamId] {
         self.spec().ids
@@ -240,6 +245,9 @@ mod tests {
         }
         for e in Effect::ALL {
             assert_eq!(Effect::from_name(e.name()), Some(e));
+            // A parent is itself in the catalogue and extends nothing.
+            assert_eq!(e.spec().extends.is_some(), e.parent().is_some(), "{}", e.name());
+            assert!(e.parent().is_none_or(|p| p.parent().is_none()));
         }
     }
 

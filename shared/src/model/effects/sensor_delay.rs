@@ -20,6 +20,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
 pub const SPEC: EffectSpec = EffectSpec {
     name: "sensor_delay",
     physics: "the tacho reading lags the shaft by td",
+    extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),
     // Up to what the simulator's delay line holds.

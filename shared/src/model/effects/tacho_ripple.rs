@@ -38,6 +38,7 @@ const PARAMS: [ParamSpec; 3] = [
 pub const SPEC: EffectSpec = EffectSpec {
     name: "tacho_ripple",
     physics: "tacho reading modulated with rotor angle: w (1 + amp sin(cycles theta + phase))",
+    extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),
     // Up to 20 % at 1 to 64 cycles per revolution.
