@@ -460,6 +460,21 @@ fn identify_recovers_a_fast_motor_from_a_reference_reversal_at_2_5_and_10_khz() 
     }
 }
 
+#[test]
+fn identify_recovers_a_fast_motor_from_a_reference_chirp_and_ramp() {
+    // Other excitations than the product's profiles: a 1-20 Hz sweep and a slow ramp,
+    // fitted jointly.
+    let dir = tempfile::tempdir().unwrap();
+    let chirp = experiment(Shape::Chirp { f0: 1.0, f1: 20.0 }, 24.0, RATE, 2.0);
+    let ramp = experiment(Shape::Ramp, 24.0, RATE, 1.0);
+    let (a, b) = (dir.path().join("chirp.csv"), dir.path().join("ramp.csv"));
+    csv::write(&run(FAST, Effects::default(), noisy(18), chirp), &a, true);
+    csv::write(&run(FAST, Effects::default(), noisy(19), ramp), &b, true);
+    let report = dir.path().join("r.json");
+    run_ok(&["identify", s(&a), s(&b), "--json", s(&report), "-q"]);
+    within_std(&json(&report), &MOTOR, &FAST.values(), 4.0, 0.0);
+}
+
 /// The product decides stick or slip once per sample: a speed that crosses zero within a
 /// sample stays at zero until the next one, even when the drive exceeds the break-away
 /// torque and the shaft (as in the reference, which decides every substep) reverses at
