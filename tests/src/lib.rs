@@ -1,6 +1,8 @@
 //! Helpers for the end-to-end tests in `tests/tests/`: they drive the `motor-id` binary
 //! exactly as a user (or another tool) would, through the CLI/CSV/JSON contract of `docs/CONTRACTS.md`.
 
+pub mod reference_plant;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
