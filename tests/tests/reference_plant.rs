@@ -221,7 +221,8 @@ fn pair(motor: Motor, effects: Effects, effect: Option<&str>, profile: &str) -> 
         "--out",
         s(&path),
     ];
-    if let Some(e) = effect {
+    // One `--effect` per effect named (space-separated).
+    for e in effect.into_iter().flat_map(str::split_whitespace) {
         args.extend(["--effect", e]);
     }
     run_ok(&args);
@@ -327,6 +328,74 @@ fn brush_drop_agrees_within_one_sample_of_the_current_dead_zone() {
     };
     let p = pair(FAST, e, Some("brush_drop:vb=1.5"), "reversal");
     p.check("brush_drop reversal", dead_zone_bound(&p.reference));
+}
+
+#[test]
+fn static_friction_agrees_within_one_sample_of_stick_slip_and_half_a_sample_of_its_fade() {
+    let e = Effects {
+        tc: 0.05,
+        ts: 0.05,
+        ws: 5.0,
+        ..Effects::default()
+    };
+    for profile in ["start", "reversal"] {
+        let p = pair(
+            FAST,
+            e,
+            Some("coulomb_friction:tc=0.05 static_friction:ts=0.05,ws=5"),
+            profile,
+        );
+        // The break-away and the crossings are decided once per sample, and the
+        // Stribeck excess is held over a sample: both bounds add.
+        let (dz, held) = (dead_zone_bound(&p.reference), held_effect_bound(&p));
+        p.check(
+            &format!("static_friction {profile}"),
+            (dz.0 + held.0, dz.1 + held.1),
+        );
+    }
+}
+
+#[test]
+fn asymmetric_friction_agrees_within_one_sample_of_stick_slip() {
+    let e = Effects {
+        tc: 0.1,
+        ta: 0.03,
+        ..Effects::default()
+    };
+    let p = pair(
+        FAST,
+        e,
+        Some("coulomb_friction:tc=0.1 asymmetric_friction:ta=0.03"),
+        "reversal",
+    );
+    p.check(
+        "asymmetric_friction reversal",
+        dead_zone_bound(&p.reference),
+    );
+}
+
+#[test]
+fn bridge_deadtime_agrees_within_half_a_sample_of_its_effect() {
+    let e = Effects {
+        vdt: 1.0,
+        ib: 0.5,
+        ..Effects::default()
+    };
+    for profile in ["reversal", "steps"] {
+        let p = pair(FAST, e, Some("bridge_deadtime:vdt=1,ib=0.5"), profile);
+        p.check(&format!("bridge_deadtime {profile}"), held_effect_bound(&p));
+    }
+}
+
+#[test]
+fn current_offset_agrees_to_f32_rounding() {
+    // A reading offset changes no dynamics: nothing but rounding may differ.
+    let e = Effects {
+        io: 0.2,
+        ..Effects::default()
+    };
+    let p = pair(FAST, e, Some("current_offset:io=0.2"), "reversal");
+    p.check("current_offset reversal", (0.0, 0.0));
 }
 
 #[test]

@@ -246,7 +246,12 @@ mod tests {
         for e in Effect::ALL {
             assert_eq!(Effect::from_name(e.name()), Some(e));
             // A parent is itself in the catalogue and extends nothing.
-            assert_eq!(e.spec().extends.is_some(), e.parent().is_some(), "{}", e.name());
+            assert_eq!(
+                e.spec().extends.is_some(),
+                e.parent().is_some(),
+                "{}",
+                e.name()
+            );
             assert!(e.parent().is_none_or(|p| p.parent().is_none()));
         }
     }
