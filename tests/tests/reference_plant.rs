@@ -632,3 +632,44 @@ fn noise_estimate_on_encoder_quantisation_is_within_20_percent() {
     eprintln!("encoder: sigma_omega {est:.4} vs RMS(reading - mean speed) {truth:.4}, q/sqrt(12) {q12:.4}");
     assert!((est / truth - 1.0).abs() < 0.2, "{est} vs {truth}");
 }
+
+#[test]
+fn identify_judges_each_channel_and_flags_a_current_offset_on_the_current() {
+    // The seed motor's stall current is 50 V / 3.412 ohm = 14.7 A: an offset of 2 % of it
+    // leaves the speed untouched but the current residual several times its noise.
+    let dir = tempfile::tempdir().unwrap();
+    let input = experiment(Shape::Steps, 50.0, RATE, 3.0);
+    let clean = run(Motor::SEED, Effects::default(), noisy(12), input.clone());
+    let offset = Effects {
+        io: 0.3,
+        ..Effects::default()
+    };
+    let shifted = run(Motor::SEED, offset, noisy(12), input);
+    let q =
+        |report: &Value, channel: &str| report["fit_quality"][channel]["model_adequate"].clone();
+    let report = identify(dir.path(), "clean", &clean, &[]);
+    assert_eq!(q(&report, "speed"), true);
+    assert_eq!(q(&report, "current"), true);
+    assert_eq!(report["fit_quality"]["model_adequate"], true);
+    let report = identify(dir.path(), "offset", &shifted, &[]);
+    assert_eq!(q(&report, "current"), false, "{}", report["fit_quality"]);
+    assert_eq!(report["fit_quality"]["model_adequate"], false);
+    let ratio = report["fit_quality"]["current"]["rmse_over_noise"]
+        .as_f64()
+        .unwrap();
+    assert!(ratio > 1.5, "{ratio}");
+    // With the offset in the model, both channels fit to their noise again.
+    let report = identify(
+        dir.path(),
+        "offset_fitted",
+        &shifted,
+        &["--bounds", "io=-1:1"],
+    );
+    assert_eq!(
+        report["fit_quality"]["model_adequate"], true,
+        "{}",
+        report["fit_quality"]
+    );
+    let io = report["params"]["io"].as_f64().unwrap();
+    assert!((io / 0.3 - 1.0).abs() < 0.05, "io = {io}");
+}

@@ -53,13 +53,55 @@ pub struct NoiseReport {
     pub sigma_current: Option<Num>,
 }
 
-/// How the fit compares to the noise.
+/// How the fit compares to the noise, channel by channel.
 #[derive(Serialize, Debug)]
 pub struct FitQuality {
-    /// Speed RMSE over the measured speed noise.
+    /// Speed RMSE over the measured speed noise (the same as `speed.rmse_over_noise`).
+    pub rmse_over_noise: Num,
+    /// Every fitted channel is adequate (speed, and current when it was fitted).
+    pub model_adequate: bool,
+    /// The speed channel.
+    pub speed: ChannelQuality,
+    /// The current channel, when current was fitted.
+    pub current: Option<ChannelQuality>,
+}
+
+/// How one channel's fit compares to its noise: the one rule of the text and the JSON.
+#[derive(Serialize, Debug, Clone, Copy)]
+pub struct ChannelQuality {
+    /// RMSE over the measured noise.
     pub rmse_over_noise: Num,
     /// Whether that ratio is at most [`MISFIT_RATIO`].
     pub model_adequate: bool,
+}
+
+impl ChannelQuality {
+    /// A channel fitted to `rmse` with measured noise `sigma`.
+    pub fn new(rmse: f32, sigma: f32) -> ChannelQuality {
+        let ratio = rmse / sigma;
+        ChannelQuality {
+            rmse_over_noise: Num(ratio),
+            model_adequate: ratio <= MISFIT_RATIO,
+        }
+    }
+}
+
+impl FitQuality {
+    /// The quality of identification `id`.
+    pub fn of(id: &Identification) -> FitQuality {
+        let speed = ChannelQuality::new(id.cost.rmse_omega, id.sigma_omega);
+        let current = id
+            .cost
+            .rmse_current
+            .zip(id.sigma_current)
+            .map(|(rmse, sigma)| ChannelQuality::new(rmse, sigma));
+        FitQuality {
+            rmse_over_noise: speed.rmse_over_noise,
+            model_adequate: speed.model_adequate && current.is_none_or(|c| c.model_adequate),
+            speed,
+            current,
+        }
+    }
 }
 
 /// One point of the convergence trace.
@@ -190,7 +232,6 @@ impl IdentifyReport {
         seed: u64,
         mode: &'static str,
     ) -> IdentifyReport {
-        let ratio = id.cost.rmse_omega / id.sigma_omega;
         IdentifyReport {
             params: reported_params(id, spec),
             rmse_omega: Num(id.cost.rmse_omega),
@@ -203,10 +244,7 @@ impl IdentifyReport {
                 sigma_current: id.sigma_current.map(Num),
             },
             fitness: Num(id.cost.fitness()),
-            fit_quality: FitQuality {
-                rmse_over_noise: Num(ratio),
-                model_adequate: ratio <= MISFIT_RATIO,
-            },
+            fit_quality: FitQuality::of(id),
             completed: id.completed,
             convergence: id
                 .trace

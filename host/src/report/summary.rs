@@ -1,6 +1,6 @@
 //! The text summary of an identification, printed on stdout by `identify` and `demo`.
 
-use super::identify::MISFIT_RATIO;
+use super::identify::FitQuality;
 use motor_id_shared::fit::identify::Identification;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::ParamId;
@@ -67,13 +67,17 @@ pub fn summary(
         s += &format!(", rmse_current = {rc:.6} A");
     }
     s += "\n";
-    let ratio = id.cost.rmse_omega / id.sigma_omega;
-    if ratio > MISFIT_RATIO {
-        s += &format!(
-            "warning: the fit is {ratio:.1} x the measured noise: the model misses something in \
-             this data (an unmodelled effect?); the uncertainties below assume white residuals \
-             and are optimistic\n"
-        );
+    let quality = FitQuality::of(id);
+    let channels = [("speed", Some(quality.speed)), ("current", quality.current)];
+    for (name, q) in channels.into_iter().filter_map(|(n, q)| Some((n, q?))) {
+        if !q.model_adequate {
+            s += &format!(
+                "warning: the {name} fit is {:.1} x its measured noise: the model misses \
+                 something in this data (an unmodelled effect?); the uncertainties below \
+                 assume white residuals and are optimistic\n",
+                q.rmse_over_noise.0
+            );
+        }
     }
     s += &format!(
         "identifiability: the data pins {} of {} directions\n",
