@@ -310,3 +310,64 @@ fn where_points_at_the_regimes_and_signatures() {
             > 0.5
     );
 }
+
+/// A held-out run of the training's voltage steps (another noise draw) is detected as a
+/// repeat; the model without effect predicts it to the noise, which is the floor: the
+/// remainder is said to be the runs' spread, and the training covers every regime.
+#[test]
+fn a_repeat_run_held_out_is_predicted_to_its_repeatability_floor() {
+    let dir = tempfile::tempdir().unwrap();
+    let files: Vec<_> = [("start", "1"), ("steps", "2"), ("steps", "3")]
+        .iter()
+        .enumerate()
+        .map(|(k, (profile, seed))| {
+            let path = dir.path().join(format!("{k}-{profile}.csv"));
+            simulate(
+                &path,
+                &[
+                    "--motor",
+                    SEED.spec,
+                    "--profile",
+                    profile,
+                    "--rate",
+                    "200",
+                    "--duration",
+                    "40",
+                    "--noise-omega",
+                    "0.2",
+                    "--noise-current",
+                    "0.05",
+                    "--seed",
+                    seed,
+                ],
+            );
+            path
+        })
+        .collect();
+    let report = dir.path().join("diag.json");
+    let text = run_ok(&[
+        "diagnose",
+        "--train",
+        s(&files[0]),
+        s(&files[1]),
+        "--holdout",
+        s(&files[2]),
+        "--json",
+        s(&report),
+        "-q",
+    ]);
+    let r = json(&report);
+    assert!(verdict(&r).is_none(), "{}", r["verdict"]);
+    let groups = r["repeatability"]["groups"].as_array().unwrap();
+    assert_eq!(groups.len(), 1, "{groups:?}");
+    assert_eq!(groups[0]["found"], "detected");
+    // White noise of 0.2 rad/s on each run: the floor gives it back.
+    let floor = r["verdict"]["repeatability_floor"].as_f64().unwrap();
+    assert!((floor / 0.2 - 1.0).abs() < 0.15, "floor {floor}");
+    assert_eq!(r["repeatability"]["holdout"]["within_floor"], true);
+    assert!(
+        text.contains("it is the motor not repeating itself"),
+        "{text}"
+    );
+    assert_eq!(r["coverage_gaps"], serde_json::json!([]));
+}

@@ -79,3 +79,111 @@ fn lab_motor_diagnosis_finds_coulomb_friction_on_held_out_runs() {
     assert!(tc > 0.0 && tc < 0.05 * 1.8 / 3.4, "tc {tc}");
     assert_eq!(r["data"]["current"], false);
 }
+
+/// `diagnose` on the lab records `train` and `holdout` (file names) with `extra` arguments;
+/// returns the JSON report and the text summary.
+fn lab_diagnose(train: &[&str], holdout: &[&str], extra: &[&str]) -> (serde_json::Value, String) {
+    let dir = realdata();
+    let out = tempfile::tempdir().unwrap();
+    let report = out.path().join("diag.json");
+    let path = |f: &&str| dir.join(f).display().to_string();
+    let (train, holdout): (Vec<String>, Vec<String>) = (
+        train.iter().map(path).collect(),
+        holdout.iter().map(path).collect(),
+    );
+    let mut args = vec!["diagnose", "--train"];
+    args.extend(train.iter().map(String::as_str));
+    args.push("--holdout");
+    args.extend(holdout.iter().map(String::as_str));
+    args.extend(FIX.iter().chain(&BOUNDS));
+    args.extend(extra);
+    args.extend(["--json", s(&report), "-q"]);
+    let text = run_ok(&args);
+    (json(&report), text)
+}
+
+/// The coverage gaps' regime names.
+fn gaps(r: &serde_json::Value) -> Vec<&str> {
+    let list = r["coverage_gaps"].as_array().expect("coverage_gaps");
+    list.iter().map(|g| g["regime"].as_str().unwrap()).collect()
+}
+
+#[test]
+fn lab_motor_reversals_held_out_from_forward_training_are_a_coverage_gap_and_repeats_set_a_floor() {
+    let dir = realdata();
+    let group = |e: &str| {
+        (1..=3)
+            .map(|k| dir.join(format!("{e}_{k}.csv")).display().to_string())
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let (chirps, sines) = (group("chirp"), group("sine"));
+    let (r, text) = lab_diagnose(
+        &["step_2.csv", "stair_2.csv"],
+        &["chirp_3.csv", "sine_3.csv"],
+        &["--repeats", &chirps, "--repeats", &sines],
+    );
+    // 0..12 V without reversal in training; the chirp and the sine reverse at ±12 V.
+    let found = gaps(&r);
+    assert!(found.contains(&"reversal"), "{found:?}");
+    assert!(found.contains(&"negative_voltage"), "{found:?}");
+    for g in r["coverage_gaps"].as_array().unwrap() {
+        if ["reversal", "negative_voltage"].contains(&g["regime"].as_str().unwrap()) {
+            assert_eq!(g["records"].as_array().unwrap().len(), 2, "{g}");
+            assert!(g["holdout_share"].as_f64().unwrap() > 0.1, "{g}");
+        }
+    }
+    assert!(text.contains("coverage: reversal ("), "{text}");
+    // Two given groups of three runs; runs 1 and 2 predict run 3 to 4.4-4.8 rad/s RMS.
+    let groups = r["repeatability"]["groups"].as_array().unwrap();
+    assert_eq!(groups.len(), 2, "{groups:?}");
+    let (mut sse, mut n) = (0.0, 0.0);
+    for (g, len) in groups.iter().zip([40001.0, 20001.0]) {
+        assert_eq!(g["found"], "given");
+        let run3 = &g["runs"][2];
+        assert_eq!(run3["set"], "holdout");
+        sse += run3["vs_others_rms_rad_s"].as_f64().unwrap().powi(2) * len;
+        n += len;
+    }
+    let by_mean_of_others = (sse / n).sqrt();
+    assert!(
+        (4.4..4.8).contains(&by_mean_of_others),
+        "{by_mean_of_others}"
+    );
+    let floor = r["verdict"]["repeatability_floor"].as_f64().unwrap();
+    assert!((floor / (by_mean_of_others * (2.0f64 / 3.0).sqrt()) - 1.0).abs() < 1e-3);
+    // Friction helps, but what remains is above the floor: not only the motor's spread.
+    let h = &r["repeatability"]["holdout"];
+    assert_eq!(h["remainder_rad_s"], r["verdict"]["holdout_rmse_after"]);
+    assert_eq!(h["within_floor"], false, "{h}");
+    assert!(text.contains("is above the repeatability floor"), "{text}");
+}
+
+#[test]
+fn lab_motor_training_with_a_sine_covers_reversals_and_detects_its_repeat() {
+    let (r, _) = lab_diagnose(
+        &["step_2.csv", "stair_2.csv", "sine_2.csv"],
+        &["chirp_3.csv", "sine_3.csv"],
+        &[],
+    );
+    let found = gaps(&r);
+    assert!(!found.contains(&"reversal"), "{found:?}");
+    assert!(!found.contains(&"negative_voltage"), "{found:?}");
+    // sine_2 (training) and sine_3 (held out) share their input: detected as repeats.
+    let groups = r["repeatability"]["groups"].as_array().unwrap();
+    assert_eq!(groups.len(), 1, "{groups:?}");
+    let g = &groups[0];
+    assert_eq!(g["found"], "detected");
+    let names: Vec<&str> = g["records"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_str().unwrap())
+        .collect();
+    assert!(
+        names[0].ends_with("sine_2.csv") && names[1].ends_with("sine_3.csv"),
+        "{names:?}"
+    );
+    let floor = r["verdict"]["repeatability_floor"].as_f64().unwrap();
+    assert!((2.0..6.0).contains(&floor), "{floor}");
+}

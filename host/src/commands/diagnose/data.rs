@@ -31,6 +31,20 @@ pub fn peak(x: &[f32]) -> f32 {
     x.iter().fold(0.0f32, |m, v| m.max(v.abs()))
 }
 
+/// A record `name` of the voltage `v` and the speed `omega`, 1 ms samples (for tests).
+#[cfg(test)]
+pub fn record(name: &str, v: Vec<f32>, omega: Vec<f32>) -> OwnedRecord {
+    OwnedRecord {
+        path: name.into(),
+        t0: 0.0,
+        dt: 1e-3,
+        v,
+        omega,
+        current: None,
+        load: None,
+    }
+}
+
 /// The training and held-out records.
 pub struct Data {
     /// Records the models are fitted on.
@@ -60,7 +74,20 @@ impl Data {
     }
 
     fn holdout_rmse(&self, p: &ModelParams) -> Result<f32> {
-        self.on_holdout(|o| o.cost(p).map(|c| c.rmse_omega))?
+        let all: Vec<usize> = (0..self.holdout.len()).collect();
+        self.holdout_rmse_of(p, &all)
+    }
+
+    /// Speed RMSE of `p` on the held-out records `which` (indices) [rad/s].
+    pub fn holdout_rmse_of(&self, p: &ModelParams, which: &[usize]) -> Result<f32> {
+        let recs: Vec<_> = which
+            .iter()
+            .map(|&k| self.holdout[k].as_record(self.with_current))
+            .collect();
+        let objective = Objective::new(&recs).map_err(|e| anyhow!("holdout: {e}"))?;
+        objective
+            .cost(p)
+            .map(|c| c.rmse_omega)
             .ok_or_else(|| anyhow!("holdout records cannot be simulated with the fitted model"))
     }
 

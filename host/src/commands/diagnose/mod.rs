@@ -3,12 +3,15 @@
 //!
 //! This module holds the arguments and runs the steps: [`search`] fits the baseline and the
 //! catalogue's effects on the records of [`data`] (where the baseline misfits: [`regimes`]
-//! and [`spectrum`]; whether an effect is real: [`verdict`]), [`report`] says what was
-//! found, [`plot`] draws it.
+//! and [`spectrum`]; whether an effect is real: [`verdict`]), [`coverage`] names the regimes
+//! only the held-out records visit, [`repeatability`] measures how far repeat runs differ
+//! (what no model can remove), [`report`] says what was found, [`plot`] draws it.
 
+mod coverage;
 mod data;
 mod plot;
 mod regimes;
+mod repeatability;
 mod report;
 mod search;
 mod spectrum;
@@ -34,6 +37,11 @@ pub struct DiagnoseArgs {
     pub holdout: Vec<PathBuf>,
     #[command(flatten)]
     pub fit: FitOptions,
+    /// Runs of one experiment (same input), comma-separated: a group of repeats whose
+    /// run-to-run spread is the repeatability floor (repeatable; files not among the
+    /// training or held-out records are read for this only).
+    #[arg(long, value_name = "A.csv,B.csv,...")]
+    pub repeats: Vec<String>,
     /// Write the JSON report here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -54,8 +62,12 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         holdout,
         with_current,
     };
+    // The repeats first: a file given by --repeats that cannot be read fails before the fits.
+    let repeats = repeatability::Repeats::find(&data, &a.repeats)?;
     let found = search::search(&data, &a.fit)?;
-    let report = DiagnoseReport::new(&data, &found);
+    let after = found.chosen().map_or(&found.baseline, |(_, s)| s);
+    let repeats = repeats.report(&data, &after.fit.result.params)?;
+    let report = DiagnoseReport::new(&data, &found, repeats);
     print!("{}", report.text());
     if let Some(path) = &a.json {
         write_json(path, &report)?;

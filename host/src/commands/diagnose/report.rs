@@ -1,8 +1,10 @@
 //! The `diagnose` report: what the search found, as JSON and as the text summary printed on
 //! stdout (both read [`DiagnoseReport`]).
 
+use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
 use super::regimes::WhereReport;
+use super::repeatability::Repeatability;
 use super::search::Search;
 use crate::report::identify::reported_params;
 use crate::report::{estimates, ByParam, Num};
@@ -26,6 +28,10 @@ pub struct DiagnoseReport {
     pub data: DataReport,
     /// Conclusions the data cannot support.
     pub cannot_support: Vec<String>,
+    /// Regimes the held-out records visit and the training records do not.
+    pub coverage_gaps: Vec<CoverageGap>,
+    /// How far repeat runs of one experiment differ.
+    pub repeatability: Repeatability,
 }
 
 /// The model without effects.
@@ -82,6 +88,8 @@ pub struct Verdict {
     pub chosen: Option<Chosen>,
     /// A second effect on top of the first.
     pub second: Second,
+    /// Run-to-run spread of the held-out records that have repeats [rad/s] (`null`: none).
+    pub repeatability_floor: Option<Num>,
 }
 
 /// The verdict's effect as fitted.
@@ -158,7 +166,7 @@ fn share_removed(before: f32, after: f32, noise: f32) -> f32 {
 
 impl DiagnoseReport {
     /// The report of `search` on `data`.
-    pub fn new(data: &Data, search: &Search) -> DiagnoseReport {
+    pub fn new(data: &Data, search: &Search, repeatability: Repeatability) -> DiagnoseReport {
         let baseline = &search.baseline;
         let holdout_noise = search.holdout.noise;
         let first = search.first;
@@ -204,6 +212,7 @@ impl DiagnoseReport {
                     effect_params: values(&s.fit.result.params, e.params()),
                 }),
             },
+            repeatability_floor: repeatability.holdout_floor(),
         };
         DiagnoseReport {
             baseline: Baseline {
@@ -222,6 +231,8 @@ impl DiagnoseReport {
                 holdout: data.holdout.iter().map(|r| r.name()).collect(),
             },
             cannot_support: data.cannot_support(baseline, chosen),
+            coverage_gaps: coverage::gaps(&data.train, &data.holdout),
+            repeatability,
         }
     }
 
@@ -268,6 +279,12 @@ impl DiagnoseReport {
             }
             _ => s +=
                 "verdict: null (no effect of the catalogue improves the held-out fit significantly)\n",
+        }
+        for line in self.repeatability.summary() {
+            s += &format!("{line}\n");
+        }
+        for line in coverage::summary(&self.coverage_gaps) {
+            s += &format!("coverage: {line}\n");
         }
         for c in &self.cannot_support {
             s += &format!("note: {c}\n");
@@ -327,6 +344,7 @@ mod tests {
                         effect_params: ByParam(vec![(ParamId::Kq, Num(4e-6))]),
                     }),
                 },
+                repeatability_floor: None,
             },
             where_: WhereReport {
                 rmse: 0.6,
@@ -347,6 +365,12 @@ mod tests {
                 holdout: vec!["b.csv".into()],
             },
             cannot_support: vec!["something".into()],
+            coverage_gaps: vec![],
+            repeatability: Repeatability {
+                groups: vec![],
+                method: "m",
+                holdout: None,
+            },
         }
     }
 
