@@ -133,3 +133,14 @@ fn bad_options_are_refused_with_one_line() {
         );
     }
 }
+
+#[test]
+fn board_timeouts_out_of_range_are_refused_with_one_line_before_any_port_is_opened() {
+    // 1e19, 1e300 and 2e18 s once overflowed the host's clock (a panic); the port does not
+    // exist, so a refusal that names the timeout was made before opening it.
+    for t in ["1e19", "1e300", "2e18", "86401", "0", "-1", "NaN", "inf"] {
+        let timeout = format!("--timeout={t}");
+        let err = run_err(&["board", "--port", "/nonexistent/port", &timeout, "hello"]);
+        assert!(err.contains("--timeout must be"), "{t}: {err}");
+    }
+}

@@ -15,6 +15,7 @@ use motor_id_shared::wire::protocol::{
     BoardMessage, HostMessage, JobStage, MotorReport, NotStored, Refusal, CHUNK, PROTOCOL_VERSION,
 };
 use serde::Serialize;
+use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -28,8 +29,9 @@ pub struct BoardArgs {
     /// Baud rate.
     #[arg(long, default_value_t = 115_200)]
     pub baud: u32,
-    /// Seconds to wait for each reply (progress frames restart the clock); a board busy with
-    /// a job (commissioning at power-up) is waited for up to six times as long.
+    /// Seconds to wait for each reply, at most a day (progress frames that show the job
+    /// advancing restart the clock); a board busy with a job (commissioning at power-up) is
+    /// waited for up to six times as long.
     #[arg(long, default_value_t = 10.0)]
     pub timeout: f64,
     /// Random seed of identifications.
@@ -72,21 +74,26 @@ pub enum BoardAction {
 struct Connection {
     port: Box<dyn serialport::SerialPort>,
     decoder: Decoder,
+    /// Bytes read from the port and not yet decoded.
+    unread: VecDeque<u8>,
     timeout: Duration,
 }
 
 impl Connection {
     fn open(a: &BoardArgs) -> Result<Connection> {
+        if !(a.timeout > 0.0 && a.timeout <= MAX_TIMEOUT_S) {
+            bail!(
+                "--timeout must be a number of seconds above 0 and at most {MAX_TIMEOUT_S} (a day)"
+            );
+        }
         let port = serialport::new(&a.port, a.baud)
             .timeout(Duration::from_millis(20))
             .open()
             .with_context(|| format!("cannot open serial port {}", a.port))?;
-        if !(a.timeout.is_finite() && a.timeout > 0.0) {
-            bail!("--timeout must be a positive number of seconds");
-        }
         Ok(Connection {
             port,
             decoder: Decoder::new(),
+            unread: VecDeque::new(),
             timeout: Duration::from_secs_f64(a.timeout),
         })
     }
@@ -98,28 +105,29 @@ impl Connection {
         self.port.flush().context("serial write failed")
     }
 
-    /// The next message, or an error after the timeout.
-    fn receive(&mut self) -> Result<BoardMessage> {
-        let deadline = Instant::now() + self.timeout;
+    /// The next message, or an error at `deadline` (also when frames keep coming: a message
+    /// decoded after the deadline is not returned).
+    fn receive_until(&mut self, deadline: Instant) -> Result<BoardMessage> {
         let mut buf = [0u8; 256];
         loop {
-            match self.port.read(&mut buf) {
-                Ok(n) => {
-                    for b in &buf[..n] {
-                        // Corrupted frames are dropped; the request is repeated on timeout.
-                        if let Some(Ok(msg)) = self.decoder.push::<BoardMessage>(*b) {
-                            return Ok(msg);
-                        }
-                    }
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
-                Err(e) => return Err(anyhow!("serial read failed: {e}")),
-            }
             if Instant::now() > deadline {
                 bail!(
                     "no answer from the board within {:.1} s",
                     self.timeout.as_secs_f64()
                 );
+            }
+            // Bytes read but not decoded yet first: one read may bring several frames (a
+            // progress frame and the result, on a loaded machine), none of them lost.
+            while let Some(b) = self.unread.pop_front() {
+                // Corrupted frames are dropped; the request is repeated on timeout.
+                if let Some(Ok(msg)) = self.decoder.push::<BoardMessage>(b) {
+                    return Ok(msg);
+                }
+            }
+            match self.port.read(&mut buf) {
+                Ok(n) => self.unread.extend(&buf[..n]),
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) => return Err(anyhow!("serial read failed: {e}")),
             }
         }
     }
@@ -138,8 +146,11 @@ impl Connection {
         let mut tries = 0;
         while tries < 3 {
             self.send(msg)?;
+            // One deadline per request: replies it does not take (a stray progress frame,
+            // say) do not extend it.
+            let deadline = Instant::now() + self.timeout;
             loop {
-                match self.receive() {
+                match self.receive_until(deadline) {
                     Ok(BoardMessage::Refused(Refusal::Busy)) if Instant::now() < busy_until => {
                         std::thread::sleep(Duration::from_millis(200));
                         break;
@@ -161,6 +172,9 @@ impl Connection {
     }
 }
 
+/// Longest `--timeout` [s].
+const MAX_TIMEOUT_S: f64 = 86_400.0;
+
 /// How many `--timeout`s a busy board is waited for.
 const BUSY_TIMEOUTS: u32 = 6;
 
@@ -174,8 +188,9 @@ fn refused(reply: &BoardMessage) -> Option<Result<()>> {
 fn hello(c: &mut Connection) -> Result<u32> {
     c.request(&HostMessage::Hello { version: PROTOCOL_VERSION }, |reply| match reply {
         BoardMessage::Hello { version, max_samples } if version == PROTOCOL_VERSION => Some(Ok(max_samples)),
-        BoardMessage::Refused(Refusal::VersionMismatch { board }) => Some(Err(anyhow!(
-            "protocol mismatch: this host speaks version {PROTOCOL_VERSION}, the board {board}; update one of them"
+        BoardMessage::Refused(Refusal::VersionMismatch { board: version })
+        | BoardMessage::Hello { version, .. } => Some(Err(anyhow!(
+            "protocol mismatch: the board speaks protocol {version}, this host speaks {PROTOCOL_VERSION}; update one of them"
         ))),
         other => refused(&other).map(|r| r.map(|_| 0)),
     })
@@ -184,14 +199,22 @@ fn hello(c: &mut Connection) -> Result<u32> {
 /// Wait for the end of a long job, showing its progress.
 fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
     let bar = FitProgress::new(quiet);
+    // The clock restarts only when a progress frame shows the job advancing: a board that
+    // repeats itself, or sends frames that belong to no job, is timed out like a silent one.
+    let mut deadline = Instant::now() + c.timeout;
+    let mut last = None;
     let out = loop {
-        match c.receive() {
+        match c.receive_until(deadline) {
             Ok(BoardMessage::Progress {
                 stage,
                 iteration,
                 evaluations,
                 best,
             }) => {
+                if last != Some((stage, iteration, evaluations)) {
+                    last = Some((stage, iteration, evaluations));
+                    deadline = Instant::now() + c.timeout;
+                }
                 let stage = match stage {
                     JobStage::Search | JobStage::Experiment => Stage::Search,
                     JobStage::Refine => Stage::Refine,

@@ -1,0 +1,175 @@
+//! `motor-id board` against a fake board on a pseudo-terminal (no QEMU): a board that speaks
+//! another protocol version, and one that floods the host with frames that never finish a
+//! job. The host must end in one clear line within its timeout every time.
+
+use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
+use motor_id_shared::wire::protocol::{
+    BoardMessage, Estimate, HostMessage, JobStage, MotorReport, PROTOCOL_VERSION,
+};
+use motor_id_tests::motor_id;
+use serialport::{SerialPort, TTYPort};
+use std::io::{Read, Write};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// A fake board on the master side of a pseudo-terminal: it answers every host message
+/// with `reply(msg)` (any number of frames, written at once) and, while `flood` is given, sends that frame
+/// over and over. Returns the slave's path and a stop flag.
+fn fake_board(
+    reply: impl Fn(&HostMessage) -> Vec<BoardMessage> + Send + 'static,
+    flood: Option<BoardMessage>,
+) -> (String, Arc<AtomicBool>, TTYPort) {
+    let (mut master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
+    let path = slave.name().expect("the slave's path");
+    master.set_timeout(Duration::from_millis(5)).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let done = stop.clone();
+    std::thread::spawn(move || {
+        let mut decoder = Decoder::new();
+        let mut buf = [0u8; 256];
+        let mut out = [0u8; MAX_FRAME];
+        while !done.load(Ordering::Relaxed) {
+            if let Ok(n) = master.read(&mut buf) {
+                for b in &buf[..n] {
+                    if let Some(Ok(msg)) = decoder.push::<HostMessage>(*b) {
+                        // All the replies in one write: they reach the host in one read.
+                        let mut all = Vec::new();
+                        for r in reply(&msg) {
+                            all.extend_from_slice(encode(&r, &mut out).unwrap());
+                        }
+                        let _ = master.write_all(&all);
+                    }
+                }
+            }
+            if let Some(f) = &flood {
+                let _ = master.write_all(encode(f, &mut out).unwrap());
+            }
+        }
+    });
+    (path, stop, slave)
+}
+
+/// Run `motor-id board --port PATH --timeout 1 ARGS` and return its exit status and stderr.
+/// A host that hangs is killed after a minute, far beyond its timeout, and fails the test.
+fn board(path: &str, args: &[&str]) -> (bool, String) {
+    let mut child = Command::new(motor_id())
+        .args(["board", "--port", path, "--timeout", "1", "-q"])
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    for _ in 0..600 {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            child
+                .stderr
+                .take()
+                .unwrap()
+                .read_to_string(&mut err)
+                .unwrap();
+            return (status.success(), err);
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    child.kill().unwrap();
+    panic!("motor-id board {args:?} still running after a minute: it hangs");
+}
+
+#[test]
+fn a_board_of_another_protocol_version_is_named() {
+    let other = PROTOCOL_VERSION + 1;
+    let (path, stop, _slave) = fake_board(
+        move |_| {
+            vec![BoardMessage::Hello {
+                version: other,
+                max_samples: 2000,
+            }]
+        },
+        None,
+    );
+    let (ok, err) = board(&path, &["hello"]);
+    stop.store(true, Ordering::Relaxed);
+    assert!(!ok);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains(&format!(
+            "the board speaks protocol {other}, this host speaks {PROTOCOL_VERSION}"
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_board_that_repeats_itself_or_sends_stray_frames_is_timed_out() {
+    let hello = |msg: &HostMessage| match msg {
+        HostMessage::Hello { .. } => vec![BoardMessage::Hello {
+            version: PROTOCOL_VERSION,
+            max_samples: 2000,
+        }],
+        _ => vec![],
+    };
+    // The same progress frame over and over: a job that does not advance.
+    let stuck = BoardMessage::Progress {
+        stage: JobStage::Refine,
+        iteration: 3,
+        evaluations: 40,
+        best: 0.5,
+    };
+    // A frame that answers nothing the host asked.
+    let stray = BoardMessage::ChunkOk { next: 7 };
+    for (flood, args) in [
+        (stuck.clone(), ["commission"]),
+        (stray.clone(), ["commission"]),
+        (stray, ["params"]),
+    ] {
+        let (path, stop, _slave) = fake_board(hello, Some(flood.clone()));
+        let (ok, err) = board(&path, &args);
+        stop.store(true, Ordering::Relaxed);
+        assert!(!ok, "{flood:?}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{flood:?}: {err}");
+        assert!(err.contains("no answer"), "{flood:?}: {err}");
+    }
+}
+
+#[test]
+fn frames_that_arrive_in_one_read_are_all_decoded() {
+    // A progress frame and the result back to back (as a loaded host reads them): the result
+    // must not be lost with the rest of the read.
+    let report = MotorReport {
+        estimates: (0..5u8)
+            .map(|k| Estimate {
+                param: k,
+                value: 1.0 + k as f32,
+                std: 0.01,
+            })
+            .collect(),
+        rmse_omega: 0.5,
+        evaluations: 21,
+        rank: 5,
+    };
+    let (path, stop, _slave) = fake_board(
+        move |msg| match msg {
+            HostMessage::Hello { .. } => vec![BoardMessage::Hello {
+                version: PROTOCOL_VERSION,
+                max_samples: 2000,
+            }],
+            HostMessage::Commission { .. } => vec![
+                BoardMessage::Progress {
+                    stage: JobStage::Experiment,
+                    iteration: 0,
+                    evaluations: 0,
+                    best: 0.0,
+                },
+                BoardMessage::Identified(report.clone()),
+            ],
+            _ => vec![],
+        },
+        None,
+    );
+    let (ok, err) = board(&path, &["commission"]);
+    stop.store(true, Ordering::Relaxed);
+    assert!(ok, "{err}");
+}
