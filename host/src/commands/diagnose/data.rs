@@ -6,7 +6,7 @@ use super::verdict::Candidate;
 use crate::csvio::OwnedRecord;
 use crate::fit::Fit;
 use anyhow::{anyhow, Result};
-use motor_id_shared::fit::objective::Objective;
+use motor_id_shared::fit::objective::{Cost, Objective};
 use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::{ModelParams, ParamId};
 
@@ -63,6 +63,8 @@ pub struct Scored {
     pub train_rmse: f32,
     /// Its speed RMSE on the held-out records [rad/s].
     pub holdout_rmse: f32,
+    /// Its current RMSE on the held-out records [A], when current is fitted.
+    pub holdout_rmse_current: Option<f32>,
 }
 
 impl Data {
@@ -73,13 +75,13 @@ impl Data {
         Ok(f(&objective))
     }
 
-    fn holdout_rmse(&self, p: &ModelParams) -> Result<f32> {
-        let all: Vec<usize> = (0..self.holdout.len()).collect();
-        self.holdout_rmse_of(p, &all)
-    }
-
     /// Speed RMSE of `p` on the held-out records `which` (indices) [rad/s].
     pub fn holdout_rmse_of(&self, p: &ModelParams, which: &[usize]) -> Result<f32> {
+        Ok(self.holdout_cost_of(p, which)?.rmse_omega)
+    }
+
+    /// The cost of `p` on the held-out records `which` (indices).
+    fn holdout_cost_of(&self, p: &ModelParams, which: &[usize]) -> Result<Cost> {
         let recs: Vec<_> = which
             .iter()
             .map(|&k| self.holdout[k].as_record(self.with_current))
@@ -87,7 +89,6 @@ impl Data {
         let objective = Objective::new(&recs).map_err(|e| anyhow!("holdout: {e}"))?;
         objective
             .cost(p)
-            .map(|c| c.rmse_omega)
             .ok_or_else(|| anyhow!("holdout records cannot be simulated with the fitted model"))
     }
 
@@ -106,6 +107,11 @@ impl Data {
     /// Measured speed noise of the held-out records [rad/s].
     pub fn holdout_noise(&self) -> Result<f32> {
         self.on_holdout(|o| o.sigma_omega())
+    }
+
+    /// Measured current noise of the held-out records [A], when current is fitted.
+    pub fn holdout_current_noise(&self) -> Result<Option<f32>> {
+        self.on_holdout(|o| o.sigma_current())
     }
 
     /// The records' scales, with `p`'s resistance for the current when none was measured.
@@ -133,10 +139,12 @@ impl Data {
 
     /// `fit` scored on both sets.
     pub fn score(&self, fit: Fit) -> Result<Scored> {
-        let holdout_rmse = self.holdout_rmse(&fit.result.params)?;
+        let all: Vec<usize> = (0..self.holdout.len()).collect();
+        let holdout = self.holdout_cost_of(&fit.result.params, &all)?;
         Ok(Scored {
             train_rmse: fit.result.cost.rmse_omega,
-            holdout_rmse,
+            holdout_rmse: holdout.rmse_omega,
+            holdout_rmse_current: holdout.rmse_current,
             fit,
         })
     }

@@ -11,6 +11,7 @@ mod coverage;
 mod data;
 mod plot;
 mod regimes;
+mod remainder;
 mod repeatability;
 mod report;
 mod search;
@@ -20,9 +21,10 @@ mod verdict;
 use crate::csvio::OwnedRecord;
 use crate::fit::FitOptions;
 use crate::output::write_json;
-use anyhow::Result;
+use anyhow::{anyhow, Result};
 use clap::Args;
 use data::Data;
+use motor_id_shared::model::effects::Effect;
 use report::DiagnoseReport;
 use std::path::PathBuf;
 
@@ -42,6 +44,10 @@ pub struct DiagnoseArgs {
     /// training or held-out records are read for this only).
     #[arg(long, value_name = "A.csv,B.csv,...")]
     pub repeats: Vec<String>,
+    /// Leave these effects of the catalogue out of the search, comma-separated (e.g. to see
+    /// what is left of the misfit without them).
+    #[arg(long, value_name = "EFFECT,...", value_delimiter = ',')]
+    pub without: Vec<String>,
     /// Write the JSON report here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -64,10 +70,31 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     };
     // The repeats first: a file given by --repeats that cannot be read fails before the fits.
     let repeats = repeatability::Repeats::find(&data, &a.repeats)?;
-    let found = search::search(&data, &a.fit)?;
-    let after = found.chosen().map_or(&found.baseline, |(_, s)| s);
+    let without = a
+        .without
+        .iter()
+        .map(|name| {
+            Effect::from_name(name).ok_or_else(|| {
+                let all: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
+                anyhow!(
+                    "--without: unknown effect {name} (one of {})",
+                    all.join(", ")
+                )
+            })
+        })
+        .collect::<Result<Vec<Effect>>>()?;
+    let found = search::search(&data, &a.fit, &without)?;
+    let after = found.last();
     let repeats = repeats.report(&data, &after.fit.result.params)?;
-    let report = DiagnoseReport::new(&data, &found, repeats);
+    let rest = remainder::remainder(
+        &data,
+        &after.fit.result.params,
+        after.holdout_rmse,
+        found.holdout.noise,
+        repeats.holdout_floor().map(|f| f.0),
+    )?;
+    let current_noise = data.holdout_current_noise()?;
+    let report = DiagnoseReport::new(&data, &found, repeats, rest, current_noise);
     print!("{}", report.text());
     if let Some(path) = &a.json {
         write_json(path, &report)?;

@@ -4,6 +4,7 @@
 use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
 use super::regimes::WhereReport;
+use super::remainder::{floor, unexplained, Remainder, UNEXPLAINED_RATIO};
 use super::repeatability::Repeatability;
 use super::search::Search;
 use crate::report::identify::reported_params;
@@ -73,13 +74,13 @@ pub struct Verdict {
     pub effect: Option<&'static str>,
     /// Held-out speed RMSE of the baseline [rad/s].
     pub holdout_rmse_before: Num,
-    /// Held-out speed RMSE with the effect [rad/s].
+    /// Held-out speed RMSE after every named effect [rad/s].
     pub holdout_rmse_after: Num,
     /// Training speed RMSE of the baseline [rad/s].
     pub train_rmse_before: Num,
-    /// Training speed RMSE with the effect [rad/s].
+    /// Training speed RMSE after every named effect [rad/s].
     pub train_rmse_after: Num,
-    /// Share of the held-out misfit above noise that the effect removes.
+    /// Share of the held-out misfit above noise that the named effects remove.
     pub share_of_misfit_removed: Num,
     /// Measured speed noise of the held-out records [rad/s].
     pub holdout_noise: Num,
@@ -88,8 +89,41 @@ pub struct Verdict {
     pub chosen: Option<Chosen>,
     /// A second effect on top of the first.
     pub second: Second,
+    /// Every effect named, in the order they were added (empty: none).
+    pub effects: Vec<NamedEffect>,
     /// Run-to-run spread of the held-out records that have repeats [rad/s] (`null`: none).
     pub repeatability_floor: Option<Num>,
+    /// The held-out misfit after every named effect is still significantly above the floor
+    /// (the noise, or the repeatability floor when larger; see [`super::remainder`]).
+    pub unexplained: bool,
+    /// What is left, how large against the floor and where (`null` when explained).
+    pub remainder: Option<Remainder>,
+    /// The current channel, when current is measured.
+    pub current: Option<ChannelVerdict>,
+}
+
+/// One named effect of the verdict.
+#[derive(Serialize, Debug)]
+pub struct NamedEffect {
+    /// The effect.
+    pub name: &'static str,
+    /// Its parameters as fitted with it.
+    pub params: ByParam<Num>,
+    /// Held-out speed RMSE of the model up to and with it [rad/s].
+    pub holdout_rmse_after: Num,
+}
+
+/// The verdict on the current channel.
+#[derive(Serialize, Debug)]
+pub struct ChannelVerdict {
+    /// Held-out current RMSE of the baseline [A].
+    pub holdout_rmse_before: Num,
+    /// Held-out current RMSE after every named effect [A].
+    pub holdout_rmse_after: Num,
+    /// Measured current noise of the held-out records [A].
+    pub holdout_noise: Num,
+    /// The current misfit is significantly above its noise.
+    pub unexplained: bool,
 }
 
 /// The verdict's effect as fitted.
@@ -165,8 +199,15 @@ fn share_removed(before: f32, after: f32, noise: f32) -> f32 {
 }
 
 impl DiagnoseReport {
-    /// The report of `search` on `data`.
-    pub fn new(data: &Data, search: &Search, repeatability: Repeatability) -> DiagnoseReport {
+    /// The report of `search` on `data`, with what is left of the misfit (`remainder`) and
+    /// the held-out records' current noise (`current_noise`, when current is measured).
+    pub fn new(
+        data: &Data,
+        search: &Search,
+        repeatability: Repeatability,
+        remainder: Option<Remainder>,
+        current_noise: Option<f32>,
+    ) -> DiagnoseReport {
         let baseline = &search.baseline;
         let holdout_noise = search.holdout.noise;
         let first = search.first;
@@ -186,7 +227,17 @@ impl DiagnoseReport {
             })
             .collect();
         let chosen = search.chosen();
-        let after = chosen.map_or(baseline, |(_, s)| s);
+        let after = search.last();
+        let current = baseline
+            .holdout_rmse_current
+            .zip(after.holdout_rmse_current)
+            .zip(current_noise)
+            .map(|((before, after), noise)| ChannelVerdict {
+                holdout_rmse_before: Num(before),
+                holdout_rmse_after: Num(after),
+                holdout_noise: Num(noise),
+                unexplained: unexplained(after, noise),
+            });
         let verdict = Verdict {
             effect: first.map(|e| e.name()),
             holdout_rmse_before: Num(baseline.holdout_rmse),
@@ -205,14 +256,25 @@ impl DiagnoseReport {
                 base_params_shift: motor_shift(&baseline.fit.result.params, &s.fit.result.params),
             }),
             second: Second {
-                effect: search.second.as_ref().map(|(e, _)| e.name()),
-                fit: search.second.as_ref().map(|(e, s)| SecondFit {
+                effect: search.more.first().map(|(e, _)| e.name()),
+                fit: search.more.first().map(|(e, s)| SecondFit {
                     holdout_rmse_after: Num(s.holdout_rmse),
                     train_rmse_after: Num(s.train_rmse),
                     effect_params: values(&s.fit.result.params, e.params()),
                 }),
             },
+            effects: search
+                .named()
+                .map(|(e, s)| NamedEffect {
+                    name: e.name(),
+                    params: values(&s.fit.result.params, e.params()),
+                    holdout_rmse_after: Num(s.holdout_rmse),
+                })
+                .collect(),
             repeatability_floor: repeatability.holdout_floor(),
+            unexplained: remainder.is_some() || current.as_ref().is_some_and(|c| c.unexplained),
+            remainder,
+            current,
         };
         DiagnoseReport {
             baseline: Baseline {
@@ -270,15 +332,46 @@ impl DiagnoseReport {
                     v.holdout_rmse_after.decimal(),
                     100.0 * v.share_of_misfit_removed.decimal(),
                 );
-                if let (Some(second), Some(fit)) = (v.second.effect, &v.second.fit) {
+                for then in v.effects.iter().skip(1) {
                     s += &format!(
-                        "then: {second}: holdout rmse -> {:.4} rad/s\n",
-                        fit.holdout_rmse_after.decimal()
+                        "then: {}: holdout rmse -> {:.4} rad/s\n",
+                        then.name,
+                        then.holdout_rmse_after.decimal()
                     );
                 }
             }
             _ => s +=
                 "verdict: null (no effect of the catalogue improves the held-out fit significantly)\n",
+        }
+        match &v.remainder {
+            Some(r) => {
+                for line in &r.summary {
+                    s += &format!("unexplained: {line}\n");
+                }
+            }
+            None => {
+                let (floor_rmse, kind) = floor(
+                    v.holdout_noise.0,
+                    v.repeatability_floor.as_ref().map(|f| f.0),
+                );
+                s += &format!(
+                    "explained: the held-out misfit ({:.4} rad/s) is within {UNEXPLAINED_RATIO} x the {kind} floor ({floor_rmse:.4} rad/s)\n",
+                    v.holdout_rmse_after.decimal()
+                );
+            }
+        }
+        if let Some(c) = &v.current {
+            s += &format!(
+                "current: holdout rmse {:.4} -> {:.4} A (noise {:.4} A){}\n",
+                c.holdout_rmse_before.decimal(),
+                c.holdout_rmse_after.decimal(),
+                c.holdout_noise.decimal(),
+                if c.unexplained {
+                    ": significantly above its noise, not explained by the catalogue"
+                } else {
+                    ""
+                }
+            );
         }
         for line in self.repeatability.summary() {
             s += &format!("{line}\n");
@@ -344,7 +437,18 @@ mod tests {
                         effect_params: ByParam(vec![(ParamId::Kq, Num(4e-6))]),
                     }),
                 },
+                effects: std::iter::once(("coulomb_friction", ParamId::Tc, 0.1, 0.3))
+                    .chain(second.map(|e| (e, ParamId::Kq, 4e-6, 0.26)))
+                    .map(|(name, id, value, after)| NamedEffect {
+                        name,
+                        params: ByParam(vec![(id, Num(value))]),
+                        holdout_rmse_after: Num(after),
+                    })
+                    .collect(),
                 repeatability_floor: None,
+                unexplained: false,
+                remainder: None,
+                current: None,
             },
             where_: WhereReport {
                 rmse: 0.6,
@@ -399,6 +503,8 @@ mod tests {
                 "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s (94 % of the misfit \
                  above noise removed), params {\"tc\":0.1}",
                 "then: quadratic_load: holdout rmse -> 0.2600 rad/s",
+                "explained: the held-out misfit (0.3000 rad/s) is within 1.2 x the noise floor \
+                 (0.2500 rad/s)",
                 "note: something",
             ]
         );
@@ -430,5 +536,34 @@ mod tests {
         assert!(r
             .text()
             .contains("verdict: null (no effect of the catalogue improves"));
+    }
+
+    #[test]
+    fn an_unexplained_remainder_is_said_with_its_size_and_place() {
+        let mut r = report(None);
+        r.verdict.unexplained = true;
+        r.verdict.remainder = Some(Remainder {
+            rmse: Num(0.17),
+            over_floor: Num(1.2),
+            over_noise: Num(1.2),
+            floor: "noise",
+            floor_rmse: Num(0.25),
+            regimes: vec![],
+            records: vec![],
+            span: super::super::remainder::Span {
+                file: "b.csv".into(),
+                from_s: Num(1.0),
+                to_s: Num(2.0),
+                share_of_misfit: Num(0.4),
+            },
+            summary: vec!["0.170 rad/s lies above the noise floor".into()],
+        });
+        let text = r.text();
+        assert!(text.contains("unexplained: 0.170 rad/s lies above the noise floor"));
+        assert!(!text.contains("explained: the held-out"));
+        let json = serde_json::to_value(&r).unwrap();
+        assert_eq!(json["verdict"]["unexplained"], true);
+        assert_eq!(json["verdict"]["remainder"]["span"]["file"], "b.csv");
+        assert_eq!(json["verdict"]["effects"][0]["name"], "coulomb_friction");
     }
 }

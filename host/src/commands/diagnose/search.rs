@@ -1,6 +1,7 @@
 //! The search over the catalogue: the baseline fitted on the training records, every effect
-//! added to it and refitted, the first that passes the significance rule, and a second one
-//! on top of that.
+//! added to it and refitted, the first that passes the significance rule, then effects added
+//! one at a time on top of the model so far, each only when it passes the rule against that
+//! model, until none does (no fixed limit).
 
 use super::data::{Data, Scored};
 use super::regimes::{self, WhereReport};
@@ -26,8 +27,8 @@ pub struct Search {
     pub scored: Vec<(Effect, Scored)>,
     /// The best effect that passes the significance rule.
     pub first: Option<Effect>,
-    /// The best effect on top of the first that passes it.
-    pub second: Option<(Effect, Scored)>,
+    /// The effects named after the first, in order, each fitted on top of the ones before.
+    pub more: Vec<(Effect, Scored)>,
 }
 
 impl Search {
@@ -58,6 +59,22 @@ impl Search {
         }
     }
 
+    /// The final model: the last effect named, or the baseline.
+    pub fn last(&self) -> &Scored {
+        match (self.more.last(), self.chosen()) {
+            (Some((_, s)), _) | (None, Some((_, s))) => s,
+            (None, None) => &self.baseline,
+        }
+    }
+
+    /// Every effect named, in order, with the fit of the model up to it.
+    pub fn named(&self) -> impl Iterator<Item = (Effect, &Scored)> {
+        let first = self.chosen().map(|(e, s)| (*e, s));
+        first
+            .into_iter()
+            .chain(self.more.iter().map(|(e, s)| (*e, s)))
+    }
+
     /// Whether `effect`'s fit passes the significance rule against the baseline.
     pub fn significant(&self, effect: Effect, s: &Scored) -> bool {
         let candidate = s.candidate(effect, &self.scales);
@@ -66,8 +83,8 @@ impl Search {
 }
 
 /// Run the search on `data` with the user's fit options (`opts.quiet` silences the steps'
-/// messages; the fits themselves show no progress bar).
-pub fn search(data: &Data, opts: &FitOptions) -> Result<Search> {
+/// messages; the fits themselves show no progress bar), the catalogue less `without`.
+pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Search> {
     let say = |msg: String| {
         if !opts.quiet {
             eprintln!("{msg}");
@@ -92,14 +109,19 @@ pub fn search(data: &Data, opts: &FitOptions) -> Result<Search> {
     let order = ripple.order;
     let scales = data.scales(&base_params);
 
-    // Which: every effect of the catalogue, refitted on the training records.
+    // Which: every effect of the catalogue the records can show, refitted on the training
+    // records.
+    let usable: Vec<Effect> = Effect::ALL
+        .into_iter()
+        .filter(|e| (data.with_current || !e.needs_current()) && !without.contains(e))
+        .collect();
     let mut scored: Vec<(Effect, Scored)> = Vec::new();
-    for (k, effect) in Effect::ALL.iter().enumerate() {
+    for (k, effect) in usable.iter().enumerate() {
         say(format!(
             "fitting with {} ({}/{})",
             effect.name(),
             k + 1,
-            Effect::ALL.len()
+            usable.len()
         ));
         let s = with_effect(&spec, *effect, &base_params, &scales, order)?;
         let f = fit_effect(data, &quiet, &s, *effect, &ripple)?;
@@ -113,7 +135,7 @@ pub fn search(data: &Data, opts: &FitOptions) -> Result<Search> {
         where_,
         scored,
         first: None,
-        second: None,
+        more: Vec::new(),
     };
     found.first = found
         .scored
@@ -121,27 +143,46 @@ pub fn search(data: &Data, opts: &FitOptions) -> Result<Search> {
         .find(|(e, s)| found.significant(*e, s))
         .map(|(e, _)| found.needed(*e));
 
-    // A second effect, on what is left after the first.
-    let mut second: Option<(Effect, Scored)> = None;
+    // More effects, one at a time, on what is left after the ones named so far.
+    let mut more: Vec<(Effect, Scored)> = Vec::new();
     if let Some((e1, first_fit)) = found.chosen() {
-        let p1 = first_fit.fit.result.params;
-        let mut spec1 = with_effect(&spec, *e1, &base_params, &scales, order)?;
-        spec1.base = p1;
-        let reference1 = first_fit.reference();
-        for effect in Effect::ALL.iter().filter(|e| *e != e1) {
-            say(format!("fitting {} on top of {}", effect.name(), e1.name()));
-            let s = with_effect(&spec1, *effect, &p1, &scales, order)?;
-            let f = data.score(fit_effect(data, &quiet, &s, *effect, &ripple)?)?;
-            if significant(&reference1, &f.candidate(*effect, &scales), &found.holdout)
-                && second
-                    .as_ref()
-                    .is_none_or(|(_, b)| f.holdout_rmse < b.holdout_rmse)
-            {
-                second = Some((*effect, f));
+        let mut in_model = vec![*e1];
+        let mut params = first_fit.fit.result.params;
+        let mut model = with_effect(&spec, *e1, &base_params, &scales, order)?;
+        model.base = params;
+        let mut reference = first_fit.reference();
+        loop {
+            let mut best: Option<(Effect, Scored)> = None;
+            // An effect whose parameters are all in the model already (Coulomb friction
+            // under its extension) adds nothing.
+            let adds = |e: &Effect| e.params().iter().any(|id| !model.free[id.index()]);
+            for effect in usable.iter().filter(|e| !in_model.contains(e) && adds(e)) {
+                let names: Vec<&str> = in_model.iter().map(|e| e.name()).collect();
+                say(format!(
+                    "fitting {} on top of {}",
+                    effect.name(),
+                    names.join(" + ")
+                ));
+                let s = with_effect(&model, *effect, &params, &scales, order)?;
+                let f = data.score(fit_effect(data, &quiet, &s, *effect, &ripple)?)?;
+                if significant(&reference, &f.candidate(*effect, &scales), &found.holdout)
+                    && best
+                        .as_ref()
+                        .is_none_or(|(_, b)| f.holdout_rmse < b.holdout_rmse)
+                {
+                    best = Some((*effect, f));
+                }
             }
+            let Some((effect, f)) = best else { break };
+            model = with_effect(&model, effect, &params, &scales, order)?;
+            params = f.fit.result.params;
+            model.base = params;
+            reference = f.reference();
+            in_model.push(effect);
+            more.push((effect, f));
         }
     }
-    found.second = second;
+    found.more = more;
     Ok(found)
 }
 

@@ -20,6 +20,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
 pub const SPEC: EffectSpec = EffectSpec {
     name: "asymmetric_friction",
     physics: "Coulomb friction tc + ta forward and tc - ta backward",
+    needs_current: false,
     extends: Some("coulomb_friction"),
     params: &PARAMS,
     ids: &ids(&PARAMS),

@@ -33,6 +33,7 @@ const PARAMS: [ParamSpec; 2] = [
 pub const SPEC: EffectSpec = EffectSpec {
     name: "bridge_deadtime",
     physics: "PWM bridge voltage error -vdt clamp(i/ib, -1, 1) against the current",
+    needs_current: false,
     extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),

@@ -19,6 +19,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
 pub const SPEC: EffectSpec = EffectSpec {
     name: "brush_drop",
     physics: "constant brush voltage drop vb with the sign of the current; no current below it",
+    needs_current: false,
     extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),

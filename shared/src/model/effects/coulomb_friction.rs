@@ -19,6 +19,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
 pub const SPEC: EffectSpec = EffectSpec {
     name: "coulomb_friction",
     physics: "constant friction torque tc sign(w) against the motion; at rest the shaft sticks while the drive torque stays within tc",
+    needs_current: false,
     extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),

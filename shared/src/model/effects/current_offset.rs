@@ -19,6 +19,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
 pub const SPEC: EffectSpec = EffectSpec {
     name: "current_offset",
     physics: "the current sensor reads i + io",
+    needs_current: true,
     extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),

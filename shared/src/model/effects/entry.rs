@@ -14,6 +14,8 @@ pub struct EffectSpec {
     pub name: &'static str,
     /// The physics, in one sentence.
     pub physics: &'static str,
+    /// It acts on the current channel only: records without current cannot show it.
+    pub needs_current: bool,
     /// The effect it extends, by name (its parameters are part of this one's model: a fit
     /// of this effect frees them too), if any.
     pub extends: Option<&'static str>,

@@ -101,6 +101,11 @@ impl Effect {
         self.spec().extends.and_then(Effect::from_name)
     }
 
+    /// It acts on the current channel only (records without current cannot show it).
+    pub const fn needs_current(self) -> bool {
+        self.spec().needs_current
+    }
+
     /// The parameters this effect adds. The first one switches the effect on (non-zero).
     pub const fn params(self) -> &'static [ParamId] {
         self.spec().ids

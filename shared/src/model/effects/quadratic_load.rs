@@ -18,6 +18,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
 pub const SPEC: EffectSpec = EffectSpec {
     name: "quadratic_load",
     physics: "fan or pump load torque kq w |w|",
+    needs_current: false,
     extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),

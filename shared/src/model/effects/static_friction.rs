@@ -33,6 +33,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     name: "static_friction",
     physics:
         "break-away torque tc + ts at rest, friction falling as tc + ts exp(-(w/ws)^2) once turning",
+    needs_current: false,
     extends: Some("coulomb_friction"),
     params: &PARAMS,
     ids: &ids(&PARAMS),

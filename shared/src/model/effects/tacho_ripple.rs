@@ -38,6 +38,7 @@ const PARAMS: [ParamSpec; 3] = [
 pub const SPEC: EffectSpec = EffectSpec {
     name: "tacho_ripple",
     physics: "tacho reading modulated with rotor angle: w (1 + amp sin(cycles theta + phase))",
+    needs_current: false,
     extends: None,
     params: &PARAMS,
     ids: &ids(&PARAMS),
