@@ -221,6 +221,14 @@ fn records_without_an_effect_get_a_null_verdict() {
     }
     for (seed, r) in in_parallel(cases) {
         assert_eq!(verdict(&r), None, "seed {seed}: {}", r["verdict"]);
+        // Nothing is left above the noise: no remainder to own up to.
+        assert_eq!(
+            r["verdict"]["unexplained"], false,
+            "seed {seed}: {}",
+            r["verdict"]
+        );
+        assert!(r["verdict"]["remainder"].is_null());
+        assert_eq!(r["verdict"]["effects"], serde_json::json!([]));
         assert_eq!(
             r["verdict"]["holdout_rmse_before"],
             r["verdict"]["holdout_rmse_after"]
