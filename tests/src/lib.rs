@@ -4,6 +4,7 @@
 pub mod reference_plant;
 
 use serde_json::Value;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -143,15 +144,22 @@ pub fn rel(a: f64, b: f64) -> f64 {
 }
 
 /// The real lab-motor data directory (`../shared/realdata/fibo-lab-motor` beside the
-/// repository). Its absence is a failure, not a skip.
-pub fn realdata() -> PathBuf {
+/// repository: the project's shared folder holds it; it is not part of the repository).
+/// Missing under CI (`CI` set) it is a failure; elsewhere the test says loudly, in one line
+/// on the terminal, that it was not run and why, and returns `None`.
+pub fn realdata() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/realdata/fibo-lab-motor");
-    assert!(
-        dir.join("step_1.csv").exists(),
-        "real data not found at {} (shared/ must sit beside the repository)",
+    if dir.join("step_1.csv").exists() {
+        return Some(dir);
+    }
+    let why = format!(
+        "real lab-motor data not found at {} (the project's shared/ folder must sit beside the repository)",
         dir.display()
     );
-    dir
+    assert!(std::env::var_os("CI").is_none(), "{why}");
+    // Straight to the terminal: the test harness captures eprintln! of a passing test.
+    let _ = writeln!(std::io::stderr(), "NOT RUN: {why}");
+    None
 }
 
 /// Path as &str.
