@@ -111,3 +111,21 @@ fn an_encoders_records_without_an_effect_are_left_alone() {
     assert!(v["effect"].is_null(), "{v}");
     assert_eq!(v["unexplained"], false, "{v}");
 }
+
+#[test]
+fn a_current_sensor_offset_is_named_on_the_current_channel() {
+    // 2 % of the stall current (50 V / 3.412 ohm at full voltage; 10 V here: 2.9 A, so 0.06
+    // A): the speed does not show it, the current residual does.
+    let dir = tempfile::tempdir().unwrap();
+    let offset = Effects {
+        io: 0.06,
+        ..Effects::default()
+    };
+    let r = diagnose(dir.path(), offset, SpeedSensor::Tacho, &[]);
+    let v = &r["verdict"];
+    assert_eq!(v["effect"], "current_offset", "{v}");
+    let io = v["effect_params"]["io"].as_f64().unwrap();
+    assert!((io / 0.06 - 1.0).abs() < 0.1, "io = {io}");
+    assert_eq!(v["current"]["unexplained"], false, "{v}");
+    assert_eq!(v["unexplained"], false, "{v}");
+}

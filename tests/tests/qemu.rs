@@ -122,6 +122,8 @@ fn first_power_up_commissions_and_the_host_commissions_again_after_clear() {
 struct Raw {
     port: Box<dyn serialport::SerialPort>,
     decoder: Decoder,
+    /// Bytes read and not decoded yet (one read may bring several frames).
+    unread: std::collections::VecDeque<u8>,
 }
 
 impl Raw {
@@ -133,6 +135,7 @@ impl Raw {
         Raw {
             port,
             decoder: Decoder::new(),
+            unread: Default::default(),
         }
     }
     fn bytes(&mut self, b: &[u8]) {
@@ -147,12 +150,13 @@ impl Raw {
         let end = Instant::now() + within;
         let mut buf = [0u8; 64];
         while Instant::now() < end {
-            if let Ok(n) = self.port.read(&mut buf) {
-                for b in &buf[..n] {
-                    if let Some(Ok(m)) = self.decoder.push::<BoardMessage>(*b) {
-                        return Some(m);
-                    }
+            while let Some(b) = self.unread.pop_front() {
+                if let Some(Ok(m)) = self.decoder.push::<BoardMessage>(b) {
+                    return Some(m);
                 }
+            }
+            if let Ok(n) = self.port.read(&mut buf) {
+                self.unread.extend(&buf[..n]);
             }
         }
         None

@@ -65,6 +65,11 @@ pub struct Scored {
     pub holdout_rmse: f32,
     /// Its current RMSE on the held-out records [A], when current is fitted.
     pub holdout_rmse_current: Option<f32>,
+    /// Its held-out misfit of both channels, each over its measured noise, in speed units:
+    /// `sigma_w sqrt(((rmse_w / sigma_w)^2 + (rmse_i / sigma_i)^2) / 2)` (the speed RMSE
+    /// without current): what the significance rule and the ranking judge, so that an
+    /// effect seen on the current channel counts as much as one seen on the speed.
+    pub holdout_joint: f32,
 }
 
 impl Data {
@@ -77,19 +82,25 @@ impl Data {
 
     /// Speed RMSE of `p` on the held-out records `which` (indices) [rad/s].
     pub fn holdout_rmse_of(&self, p: &ModelParams, which: &[usize]) -> Result<f32> {
-        Ok(self.holdout_cost_of(p, which)?.rmse_omega)
+        Ok(self.holdout_cost_of(p, which)?.0.rmse_omega)
     }
 
-    /// The cost of `p` on the held-out records `which` (indices).
-    fn holdout_cost_of(&self, p: &ModelParams, which: &[usize]) -> Result<Cost> {
+    /// The cost of `p` on the held-out records `which` (indices), with their measured speed
+    /// and current noise.
+    fn holdout_cost_of(
+        &self,
+        p: &ModelParams,
+        which: &[usize],
+    ) -> Result<(Cost, f32, Option<f32>)> {
         let recs: Vec<_> = which
             .iter()
             .map(|&k| self.holdout[k].as_record(self.with_current))
             .collect();
         let objective = Objective::new(&recs).map_err(|e| anyhow!("holdout: {e}"))?;
-        objective
+        let cost = objective
             .cost(p)
-            .ok_or_else(|| anyhow!("holdout records cannot be simulated with the fitted model"))
+            .ok_or_else(|| anyhow!("holdout records cannot be simulated with the fitted model"))?;
+        Ok((cost, objective.sigma_omega(), objective.sigma_current()))
     }
 
     /// RMS of the held-out measured speed [rad/s].
@@ -140,11 +151,19 @@ impl Data {
     /// `fit` scored on both sets.
     pub fn score(&self, fit: Fit) -> Result<Scored> {
         let all: Vec<usize> = (0..self.holdout.len()).collect();
-        let holdout = self.holdout_cost_of(&fit.result.params, &all)?;
+        let (holdout, sigma_w, sigma_i) = self.holdout_cost_of(&fit.result.params, &all)?;
+        let joint = match (holdout.rmse_current, sigma_i) {
+            (Some(rmse_i), Some(sigma_i)) => {
+                let (w, i) = (holdout.rmse_omega / sigma_w, rmse_i / sigma_i);
+                sigma_w * ((w * w + i * i) / 2.0).sqrt()
+            }
+            _ => holdout.rmse_omega,
+        };
         Ok(Scored {
             train_rmse: fit.result.cost.rmse_omega,
             holdout_rmse: holdout.rmse_omega,
             holdout_rmse_current: holdout.rmse_current,
+            holdout_joint: joint,
             fit,
         })
     }
@@ -237,11 +256,11 @@ impl Scored {
     pub fn candidate(&self, effect: Effect, scales: &Scales) -> Candidate {
         let too_short = effect == Effect::SensorDelay
             && self.fit.result.params.get(ParamId::Td) < 0.5 * scales.dt;
-        Candidate::of(&self.fit, self.holdout_rmse, effect.params().len()).unresolvable(too_short)
+        Candidate::of(&self.fit, self.holdout_joint, effect.params().len()).unresolvable(too_short)
     }
 
     /// The significance rule's view of this fit as the reference others add an effect to.
     pub fn reference(&self) -> Candidate {
-        Candidate::of(&self.fit, self.holdout_rmse, 0)
+        Candidate::of(&self.fit, self.holdout_joint, 0)
     }
 }

@@ -59,6 +59,9 @@ pub struct EffectFit {
     pub train_rmse: Num,
     /// Speed RMSE on the held-out records [rad/s].
     pub holdout_rmse: Num,
+    /// Held-out misfit of both channels, each over its noise, in speed units [rad/s] (the
+    /// speed RMSE without current): what the ranking and the significance rule judge.
+    pub holdout_joint: Num,
     /// The motor's and the effect's parameters.
     pub params: ByParam<Num>,
     /// Standard deviation of the effect's free parameters.
@@ -218,6 +221,7 @@ impl DiagnoseReport {
                 name: e.name(),
                 train_rmse: Num(s.train_rmse),
                 holdout_rmse: Num(s.holdout_rmse),
+                holdout_joint: Num(s.holdout_joint),
                 params: values(
                     &s.fit.result.params,
                     &[&ParamId::MOTOR[..], e.params()].concat(),
@@ -396,6 +400,7 @@ mod tests {
             name,
             train_rmse: Num(0.5),
             holdout_rmse: Num(holdout),
+            holdout_joint: Num(holdout),
             params: ByParam(vec![]),
             effect_std: ByParam(vec![]),
             significant,

@@ -23,7 +23,8 @@ pub struct Search {
     pub scales: Scales,
     /// Where the baseline misfits.
     pub where_: WhereReport,
-    /// Every effect of the catalogue added to the baseline, best held-out RMSE first.
+    /// Every effect of the catalogue added to the baseline, best held-out (joint) misfit
+    /// first.
     pub scored: Vec<(Effect, Scored)>,
     /// The best effect that passes the significance rule.
     pub first: Option<Effect>,
@@ -127,7 +128,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         let f = fit_effect(data, &quiet, &s, *effect, &ripple)?;
         scored.push((*effect, data.score(f)?));
     }
-    scored.sort_by(|a, b| a.1.holdout_rmse.total_cmp(&b.1.holdout_rmse));
+    scored.sort_by(|a, b| a.1.holdout_joint.total_cmp(&b.1.holdout_joint));
     let mut found = Search {
         baseline,
         holdout,
@@ -168,7 +169,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
                 if significant(&reference, &f.candidate(*effect, &scales), &found.holdout)
                     && best
                         .as_ref()
-                        .is_none_or(|(_, b)| f.holdout_rmse < b.holdout_rmse)
+                        .is_none_or(|(_, b)| f.holdout_joint < b.holdout_joint)
                 {
                     best = Some((*effect, f));
                 }
