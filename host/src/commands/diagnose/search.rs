@@ -9,6 +9,8 @@ use super::spectrum::{order_peak, OrderPeak};
 use super::verdict::{significant, Holdout};
 use crate::fit::{fit_from, Fit, FitOptions};
 use anyhow::{anyhow, Result};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::{ModelParams, ParamId};
@@ -117,16 +119,19 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         .filter(|e| (data.with_current || !e.needs_current()) && !without.contains(e))
         .collect();
     let mut scored: Vec<(Effect, Scored)> = Vec::new();
-    for (k, effect) in usable.iter().enumerate() {
+    let fits = in_parallel(usable.len(), |k| {
+        let effect = usable[k];
         say(format!(
             "fitting with {} ({}/{})",
             effect.name(),
             k + 1,
             usable.len()
         ));
-        let s = with_effect(&spec, *effect, &base_params, &scales, order)?;
-        let f = fit_effect(data, &quiet, &s, *effect, &ripple)?;
-        scored.push((*effect, data.score(f)?));
+        let s = with_effect(&spec, effect, &base_params, &scales, order)?;
+        data.score(fit_effect(data, &quiet, &s, effect, &ripple)?)
+    });
+    for (effect, f) in usable.iter().zip(fits) {
+        scored.push((*effect, f?));
     }
     scored.sort_by(|a, b| a.1.holdout_joint.total_cmp(&b.1.holdout_joint));
     let mut found = Search {
@@ -157,15 +162,24 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             // An effect whose parameters are all in the model already (Coulomb friction
             // under its extension) adds nothing.
             let adds = |e: &Effect| e.params().iter().any(|id| !model.free[id.index()]);
-            for effect in usable.iter().filter(|e| !in_model.contains(e) && adds(e)) {
-                let names: Vec<&str> = in_model.iter().map(|e| e.name()).collect();
+            let names: Vec<&str> = in_model.iter().map(|e| e.name()).collect();
+            let candidates: Vec<Effect> = usable
+                .iter()
+                .copied()
+                .filter(|e| !in_model.contains(e) && adds(e))
+                .collect();
+            let fits = in_parallel(candidates.len(), |k| {
+                let effect = candidates[k];
                 say(format!(
                     "fitting {} on top of {}",
                     effect.name(),
                     names.join(" + ")
                 ));
-                let s = with_effect(&model, *effect, &params, &scales, order)?;
-                let f = data.score(fit_effect(data, &quiet, &s, *effect, &ripple)?)?;
+                let s = with_effect(&model, effect, &params, &scales, order)?;
+                data.score(fit_effect(data, &quiet, &s, effect, &ripple)?)
+            });
+            for (effect, f) in candidates.iter().zip(fits) {
+                let f = f?;
                 if significant(&reference, &f.candidate(*effect, &scales), &found.holdout)
                     && best
                         .as_ref()
@@ -185,6 +199,31 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     }
     found.more = more;
     Ok(found)
+}
+
+/// `f(0..n)` on the machine's cores (the fits of different effects are independent, each
+/// deterministic, so the results do not depend on the threads), in order.
+fn in_parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let workers = std::thread::available_parallelism().map_or(1, |c| c.get()).min(n);
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<T>>> = Mutex::new((0..n).map(|_| None).collect());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| loop {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                if k >= n {
+                    break;
+                }
+                let r = f(k);
+                results.lock().expect("no worker panics holding the lock")[k] = Some(r);
+            });
+        }
+    });
+    let results = results.into_inner().expect("no worker panicked");
+    results
+        .into_iter()
+        .map(|r| r.expect("every index was run"))
+        .collect()
 }
 
 /// `spec` with `effect` free within bounds scaled to `base`, and the effect it extends with
