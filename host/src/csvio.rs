@@ -2,6 +2,7 @@
 //! `omega` (rad/s), optional `i` (A), optional `tl` (N m); other columns ignored. Plus the
 //! oscilloscope import of the seed's workflow (tacho volts to rad/s).
 
+use crate::output::write_atomically;
 use anyhow::{anyhow, bail, Context, Result};
 use motor_id_shared::model::record::MIN_SAMPLES;
 use motor_id_shared::Record;
@@ -74,7 +75,12 @@ impl OwnedRecord {
 
     /// Write as record CSV.
     pub fn write(&self, path: &Path) -> Result<()> {
-        let mut w = csv::Writer::from_path(path)
+        write_atomically(path, |tmp| self.write_to(tmp, path))
+    }
+
+    /// Write as record CSV to `tmp` (`path` names it in errors).
+    fn write_to(&self, tmp: &Path, path: &Path) -> Result<()> {
+        let mut w = csv::Writer::from_path(tmp)
             .with_context(|| format!("cannot create {}", path.display()))?;
         let mut header = vec!["t", "v", "omega"];
         if self.current.is_some() {

@@ -1,6 +1,7 @@
 //! PNG plots (plotters bitmap backend; text through ab_glyph with the bundled DejaVu font,
 //! so no system font library is needed).
 
+use crate::output::write_atomically;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -82,9 +83,14 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 
 /// Draw `panels` stacked vertically into a PNG.
 pub fn draw(path: &Path, panels: &[Panel]) -> Result<()> {
+    write_atomically(path, |tmp| draw_to(tmp, path, panels))
+}
+
+/// [`draw`] into the file `tmp` (`path` names it in errors).
+fn draw_to(tmp: &Path, path: &Path, panels: &[Panel]) -> Result<()> {
     register_font();
     let height = 330 * panels.len() as u32;
-    let root = BitMapBackend::new(path, (1200, height)).into_drawing_area();
+    let root = BitMapBackend::new(tmp, (1200, height)).into_drawing_area();
     let err = |e: &dyn std::fmt::Display| anyhow!("cannot draw {}: {e}", path.display());
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let areas = root.split_evenly((panels.len(), 1));

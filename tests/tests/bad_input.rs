@@ -144,3 +144,22 @@ fn board_timeouts_out_of_range_are_refused_with_one_line_before_any_port_is_open
         assert!(err.contains("--timeout must be"), "{t}: {err}");
     }
 }
+
+#[test]
+fn an_output_into_a_missing_directory_is_one_line_and_nothing_is_left_behind() {
+    let d = tempfile::tempdir().unwrap();
+    let rec = d.path().join("rec.csv");
+    motor_id_tests::simulate(&rec, &["--profile", "start", "--duration", "2"]);
+    let missing = d.path().join("no").join("such");
+    for (flag, name) in [("--plot", "fit.png"), ("--json", "fit.json")] {
+        let out = missing.join(name);
+        let err = run_err(&["identify", s(&rec), flag, s(&out), "-q"]);
+        assert!(
+            err.contains(&format!("cannot write {}", out.display())),
+            "{err}"
+        );
+    }
+    let err = run_err(&["simulate", "--out", s(&missing.join("r.csv"))]);
+    assert!(err.contains("cannot write"), "{err}");
+    assert!(!missing.exists());
+}

@@ -9,11 +9,11 @@ use super::spectrum::{order_peak, OrderPeak};
 use super::verdict::{significant, Holdout};
 use crate::fit::{fit_from, Fit, FitOptions};
 use anyhow::{anyhow, Result};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::{ModelParams, ParamId};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 
 /// What the search found.
 pub struct Search {
@@ -204,7 +204,9 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
 /// `f(0..n)` on the machine's cores (the fits of different effects are independent, each
 /// deterministic, so the results do not depend on the threads), in order.
 fn in_parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    let workers = std::thread::available_parallelism().map_or(1, |c| c.get()).min(n);
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |c| c.get())
+        .min(n);
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<T>>> = Mutex::new((0..n).map(|_| None).collect());
     std::thread::scope(|scope| {
