@@ -73,6 +73,15 @@ impl OwnedRecord {
         records.iter().map(|r| r.as_record(use_current)).collect()
     }
 
+    /// The same samples as `other` (the same file, or a copy of it).
+    pub fn same_data(&self, other: &OwnedRecord) -> bool {
+        self.dt == other.dt
+            && self.v == other.v
+            && self.omega == other.omega
+            && self.current == other.current
+            && self.load == other.load
+    }
+
     /// Write as record CSV.
     pub fn write(&self, path: &Path) -> Result<()> {
         write_atomically(path, |tmp| self.write_to(tmp, path))
@@ -110,6 +119,10 @@ impl OwnedRecord {
     }
 }
 
+/// Largest magnitude of a signal sample (V, rad/s, A, N m): a larger one is a unit or scale
+/// error, and its squares would overflow the fit's f32 sums.
+const MAX_MAGNITUDE: f64 = 1e9;
+
 fn read_record(path: &Path) -> Result<OwnedRecord> {
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
@@ -123,6 +136,16 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
         bail!("empty file");
     }
     let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
+    for name in ["t", "v", "omega", "i", "tl"] {
+        if header
+            .iter()
+            .filter(|h| h.eq_ignore_ascii_case(name))
+            .count()
+            > 1
+        {
+            bail!("column {name} appears more than once in the header: which one is meant?");
+        }
+    }
     let (t_col, v_col, w_col) = match (col("t"), col("v"), col("omega")) {
         (Some(t), Some(v), Some(w)) => (t, v, w),
         _ => {
@@ -130,10 +153,20 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
                 .into_iter()
                 .filter(|c| col(c).is_none())
                 .collect();
+            let joined = header.iter().collect::<Vec<_>>().join(",");
+            let hint = match [';', '\t'].into_iter().find(|s| joined.contains(*s)) {
+                Some(';') => {
+                    "; the file seems to separate fields with ';': records are comma-separated"
+                }
+                Some(_) => {
+                    "; the file seems to separate fields with tabs: records are comma-separated"
+                }
+                None => "",
+            };
             bail!(
-                "missing column(s) {} (header is '{}'; need t, v, omega, optional i, tl)",
+                "missing column(s) {} (header is '{}'; need t, v, omega, optional i, tl){hint}",
                 missing.join(", "),
-                header.iter().collect::<Vec<_>>().join(",")
+                joined.escape_default()
             );
         }
     };
@@ -163,6 +196,11 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
             if !x.is_finite() || !(x as f32).is_finite() {
                 bail!("line {line}: {name} = '{text}' is not finite (as a 32-bit float)");
             }
+            if name != "t" && x.abs() > MAX_MAGNITUDE {
+                bail!(
+                    "line {line}: {name} = '{text}' is beyond {MAX_MAGNITUDE:e} (a unit or scale error?)"
+                );
+            }
             Ok(x)
         };
         t.push(field(t_col, "t")?);
@@ -180,6 +218,9 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
     }
     if t.len() < MIN_SAMPLES {
         bail!("only {} data rows (need at least {MIN_SAMPLES})", t.len());
+    }
+    if omega.iter().all(|w| *w == 0.0) {
+        bail!("omega is zero throughout: the motor never turned, there is nothing to fit");
     }
     let dt = uniform_step(&t, &lines)?;
     let rec = OwnedRecord {
@@ -295,6 +336,21 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
         .with_context(context);
     }
     let dt = uniform_step(&t, &lines).with_context(context)?;
+    let (first, last) = (t[0], t[t.len() - 1]);
+    if s.step_at > last {
+        return Err(anyhow!(
+            "--step-at {} s is after the trace's end ({last} s): the record would have no voltage",
+            s.step_at
+        ))
+        .with_context(context);
+    }
+    if s.step_at < first {
+        return Err(anyhow!(
+            "--step-at {} s is before the trace's start ({first} s): the step from rest is not in it",
+            s.step_at
+        ))
+        .with_context(context);
+    }
     let v = t
         .iter()
         .map(|&ti| if ti >= s.step_at { s.voltage } else { 0.0 })

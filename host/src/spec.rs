@@ -110,9 +110,14 @@ pub fn apply_effect(p: &mut ModelParams, text: &str) -> Result<Effect> {
 /// an effect parameter free it (the effect is fitted).
 pub fn problem(bounds: &[String], fix: &[String]) -> Result<ProblemSpec> {
     let mut spec = ProblemSpec::default();
+    let mut bounded = Vec::new();
     for list in bounds {
         for (k, v) in pairs(list).context("--bounds")? {
             let id = param(k).context("--bounds")?;
+            if bounded.contains(&id) {
+                bail!("--bounds: {k} is bounded twice");
+            }
+            bounded.push(id);
             let (lo, hi) = v
                 .split_once(':')
                 .ok_or_else(|| anyhow!("--bounds: {k} needs LO:HI, got '{v}'"))?;
@@ -121,6 +126,11 @@ pub fn problem(bounds: &[String], fix: &[String]) -> Result<ProblemSpec> {
             if lo >= hi {
                 bail!("--bounds: {k} has lo {lo} >= hi {hi}");
             }
+            // A range of more than twelve decades is no bound: the search's unit cube would
+            // resolve nothing within it.
+            if lo > 0.0 && hi / lo > 1e12 {
+                bail!("--bounds: {k} = {lo}:{hi} spans more than 12 decades; narrow it to the motor at hand");
+            }
             spec.set_bounds(id, lo, hi)
                 .map_err(|e| anyhow!("--bounds: {e}"))?;
             if !id.is_motor() {
@@ -128,9 +138,17 @@ pub fn problem(bounds: &[String], fix: &[String]) -> Result<ProblemSpec> {
             }
         }
     }
+    let mut fixed = Vec::new();
     for list in fix {
         for (k, v) in pairs(list).context("--fix")? {
             let id = param(k).context("--fix")?;
+            if fixed.contains(&id) {
+                bail!("--fix: {k} is fixed twice");
+            }
+            if bounded.contains(&id) {
+                bail!("--fix: {k} is given bounds too: fix it or bound it, not both");
+            }
+            fixed.push(id);
             let x = number(k, v).context("--fix")?;
             spec.fix(id, x).map_err(|e| anyhow!("--fix: {e}"))?;
         }

@@ -58,6 +58,40 @@ fn broken_records_are_refused_with_one_line() {
         ),
         ("short.csv", rows(3, good), "only 3 data rows"),
         ("ragged.csv", "t,v,omega\n0,1,2\n0.01,1\n".into(), "fields"),
+        (
+            "twice.csv",
+            format!(
+                "t,v,omega,omega\n{}",
+                rows(20, |k| format!("{},1", good(k)))[10..].to_string()
+            ),
+            "column omega appears more than once",
+        ),
+        (
+            "semicolons.csv",
+            rows(20, good).replace(',', ";"),
+            "separate fields with ';'",
+        ),
+        (
+            "tabs.csv",
+            rows(20, good).replace(',', "\t"),
+            "separate fields with tabs",
+        ),
+        (
+            "huge.csv",
+            rows(20, |k| {
+                if k == 4 {
+                    "0.04,1e30,4".into()
+                } else {
+                    good(k)
+                }
+            }),
+            "line 6: v = '1e30' is beyond",
+        ),
+        (
+            "still.csv",
+            rows(20, |k| format!("{},{},0", k as f64 * 0.01, 10.0)),
+            "omega is zero throughout",
+        ),
     ];
     for (name, text, expect) in cases {
         let p = file(&d, name, &text);
@@ -125,6 +159,26 @@ fn bad_options_are_refused_with_one_line() {
             "outside",
         ),
         (vec!["simulate", "--rate", "0", "--out", "x.csv"], "--rate"),
+        (
+            vec!["identify", ok, "--fix", "ra=3", "--bounds", "ra=1:2"],
+            "fix it or bound it, not both",
+        ),
+        (
+            vec!["identify", ok, "--fix", "ra=3,ra=4"],
+            "ra is fixed twice",
+        ),
+        (
+            vec!["identify", ok, "--bounds", "ra=1:2", "--bounds", "ra=1:3"],
+            "ra is bounded twice",
+        ),
+        (
+            vec!["identify", ok, "--bounds", "kv=1e-20:1e20"],
+            "more than 12 decades",
+        ),
+        (
+            vec!["diagnose", "--train", ok, "--holdout", ok],
+            "is the training record",
+        ),
     ] {
         let err = run_err(&args);
         assert!(
@@ -162,4 +216,36 @@ fn an_output_into_a_missing_directory_is_one_line_and_nothing_is_left_behind() {
     let err = run_err(&["simulate", "--out", s(&missing.join("r.csv"))]);
     assert!(err.contains("cannot write"), "{err}");
     assert!(!missing.exists());
+}
+
+#[test]
+fn a_scope_step_outside_the_trace_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let scope = file(
+        &d,
+        "scope.csv",
+        &(0..50)
+            .map(|k| format!("{},{}\n", k as f64 * 0.01, (k as f64 * 0.1).min(2.0)))
+            .collect::<String>(),
+    );
+    let out = d.path().join("rec.csv");
+    for (at, expect) in [
+        ("5", "after the trace's end"),
+        ("-1", "before the trace's start"),
+    ] {
+        let step = format!("--step-at={at}");
+        let err = run_err(&[
+            "import-scope",
+            s(&scope),
+            "--tacho-gain",
+            "35",
+            "--voltage",
+            "12",
+            &step,
+            "--out",
+            s(&out),
+        ]);
+        assert!(err.contains(expect), "{at}: {err}");
+    }
+    assert!(!out.exists());
 }

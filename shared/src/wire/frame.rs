@@ -112,7 +112,12 @@ impl Decoder {
         if CRC.checksum(body) != expected {
             return Some(Err(FrameError::Crc));
         }
-        Some(postcard::from_bytes(body).map_err(|_| FrameError::Decode))
+        // The whole body is the message: bytes left after it mean another message shape
+        // (another protocol version), not a message to act on.
+        Some(match postcard::take_from_bytes(body) {
+            Ok((msg, [])) => Ok(msg),
+            _ => Err(FrameError::Decode),
+        })
     }
 }
 
@@ -291,5 +296,28 @@ mod tests {
             }
             prop_assert_eq!(last, Some(Ok(msg)));
         }
+    }
+
+    #[test]
+    fn a_message_with_bytes_after_it_is_not_taken() {
+        // A valid frame whose body is a message and one byte more (as a message of another
+        // shape, from another protocol version, may be read).
+        let mut out = [0u8; MAX_FRAME];
+        let frame = encode(&(HostMessage::ReadParams, 7u8), &mut out)
+            .unwrap()
+            .to_vec();
+        let mut d = Decoder::new();
+        let got: Vec<_> = frame
+            .iter()
+            .filter_map(|b| d.push::<HostMessage>(*b))
+            .collect();
+        assert_eq!(got, vec![Err(FrameError::Decode)]);
+        // Without the extra byte it is taken.
+        let frame = encode(&HostMessage::ReadParams, &mut out).unwrap().to_vec();
+        let got: Vec<_> = frame
+            .iter()
+            .filter_map(|b| d.push::<HostMessage>(*b))
+            .collect();
+        assert_eq!(got, vec![Ok(HostMessage::ReadParams)]);
     }
 }

@@ -21,7 +21,7 @@ mod verdict;
 use crate::csvio::OwnedRecord;
 use crate::fit::FitOptions;
 use crate::output::write_json;
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use data::Data;
 use motor_id_shared::model::effects::Effect;
@@ -61,6 +61,16 @@ pub struct DiagnoseArgs {
 pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let train = OwnedRecord::read_all(&a.train)?;
     let holdout = OwnedRecord::read_all(&a.holdout)?;
+    // Judging on a record the fit saw says nothing about what it never saw.
+    for h in &holdout {
+        if let Some(t) = train.iter().find(|t| t.same_data(h)) {
+            bail!(
+                "held-out record {} is the training record {}: hold out a record the fit does not see",
+                h.name(),
+                t.name()
+            );
+        }
+    }
     let with_current =
         !a.fit.speed_only && train.iter().chain(&holdout).all(|r| r.current.is_some());
     let data = Data {
