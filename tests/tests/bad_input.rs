@@ -62,7 +62,7 @@ fn broken_records_are_refused_with_one_line() {
             "twice.csv",
             format!(
                 "t,v,omega,omega\n{}",
-                rows(20, |k| format!("{},1", good(k)))[10..].to_string()
+                &rows(20, |k| format!("{},1", good(k)))[10..]
             ),
             "column omega appears more than once",
         ),
