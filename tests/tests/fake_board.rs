@@ -16,10 +16,10 @@ use std::time::Duration;
 
 /// A fake board on the master side of a pseudo-terminal: it answers every host message
 /// with `reply(msg)` (any number of frames, written at once) and, while `flood` is given, sends that frame
-/// over and over. Returns the slave's path and a stop flag.
+/// over and over (`flood` makes each). Returns the slave's path and a stop flag.
 fn fake_board(
     reply: impl Fn(&HostMessage) -> Vec<BoardMessage> + Send + 'static,
-    flood: Option<BoardMessage>,
+    mut flood: Option<Box<dyn FnMut() -> BoardMessage + Send>>,
 ) -> (String, Arc<AtomicBool>, TTYPort) {
     let (mut master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
     let path = slave.name().expect("the slave's path");
@@ -43,8 +43,8 @@ fn fake_board(
                     }
                 }
             }
-            if let Some(f) = &flood {
-                let _ = master.write_all(encode(f, &mut out).unwrap());
+            if let Some(f) = flood.as_mut() {
+                let _ = master.write_all(encode(&f(), &mut out).unwrap());
             }
         }
     });
@@ -54,13 +54,21 @@ fn fake_board(
 /// Run `motor-id board --port PATH --timeout 1 ARGS` and return its exit status and stderr.
 /// A host that hangs is killed after a minute, far beyond its timeout, and fails the test.
 fn board(path: &str, args: &[&str]) -> (bool, String) {
-    let mut child = Command::new(motor_id())
+    let child = start_board(path, args);
+    wait(child, args)
+}
+
+fn start_board(path: &str, args: &[&str]) -> std::process::Child {
+    Command::new(motor_id())
         .args(["board", "--port", path, "--timeout", "1", "-q"])
         .args(args)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
-        .unwrap();
+        .unwrap()
+}
+
+fn wait(mut child: std::process::Child, args: &[&str]) -> (bool, String) {
     for _ in 0..600 {
         if let Some(status) = child.try_wait().unwrap() {
             let mut err = String::new();
@@ -125,7 +133,8 @@ fn a_board_that_repeats_itself_or_sends_stray_frames_is_timed_out() {
         (stray.clone(), ["commission"]),
         (stray, ["params"]),
     ] {
-        let (path, stop, _slave) = fake_board(hello, Some(flood.clone()));
+        let frame = flood.clone();
+        let (path, stop, _slave) = fake_board(hello, Some(Box::new(move || frame.clone())));
         let (ok, err) = board(&path, &args);
         stop.store(true, Ordering::Relaxed);
         assert!(!ok, "{flood:?}");
@@ -172,4 +181,66 @@ fn frames_that_arrive_in_one_read_are_all_decoded() {
     let (ok, err) = board(&path, &["commission"]);
     stop.store(true, Ordering::Relaxed);
     assert!(ok, "{err}");
+}
+
+#[test]
+fn ctrl_c_during_a_job_aborts_it_on_the_board() {
+    let asked_to_abort = Arc::new(AtomicBool::new(false));
+    let seen = asked_to_abort.clone();
+    let job_started = Arc::new(AtomicBool::new(false));
+    let started = job_started.clone();
+    let (path, stop, _slave) = fake_board(
+        move |msg| match msg {
+            HostMessage::Hello { .. } => vec![BoardMessage::Hello {
+                version: PROTOCOL_VERSION,
+                max_samples: 2000,
+            }],
+            HostMessage::Commission { .. } => {
+                started.store(true, Ordering::Relaxed);
+                vec![]
+            }
+            HostMessage::Abort => {
+                seen.store(true, Ordering::Relaxed);
+                vec![BoardMessage::Aborted]
+            }
+            _ => vec![],
+        },
+        // A job that advances forever.
+        Some(Box::new({
+            let mut k = 0;
+            move || {
+                k += 1;
+                BoardMessage::Progress {
+                    stage: JobStage::Refine,
+                    iteration: k,
+                    evaluations: k,
+                    best: 0.5,
+                }
+            }
+        })),
+    );
+    let child = start_board(&path, &["commission"]);
+    // Once the job was asked for (the host then follows it), Ctrl-C (SIGINT).
+    for _ in 0..600 {
+        if job_started.load(Ordering::Relaxed) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(
+        job_started.load(Ordering::Relaxed),
+        "the host never asked for the job"
+    );
+    let pid = child.id().to_string();
+    let status = Command::new("kill").args(["-INT", &pid]).status().unwrap();
+    assert!(status.success());
+    let (ok, err) = wait(child, &["commission"]);
+    stop.store(true, Ordering::Relaxed);
+    assert!(!ok);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("interrupted: the board aborted its job"),
+        "{err}"
+    );
+    assert!(asked_to_abort.load(Ordering::Relaxed));
 }

@@ -18,6 +18,7 @@ use serde::Serialize;
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Arguments of `board`.
@@ -110,6 +111,9 @@ impl Connection {
     fn receive_until(&mut self, deadline: Instant) -> Result<BoardMessage> {
         let mut buf = [0u8; 256];
         loop {
+            if INTERRUPTED.swap(false, Ordering::SeqCst) {
+                return Err(anyhow::Error::new(Interrupted));
+            }
             if Instant::now() > deadline {
                 bail!(
                     "no answer from the board within {:.1} s",
@@ -126,7 +130,12 @@ impl Connection {
             }
             match self.port.read(&mut buf) {
                 Ok(n) => self.unread.extend(&buf[..n]),
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                // A signal (Ctrl-C) interrupts the read: the loop takes it above.
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted
+                    ) => {}
                 Err(e) => return Err(anyhow!("serial read failed: {e}")),
             }
         }
@@ -159,6 +168,9 @@ impl Connection {
                         if let Some(r) = accept(reply) {
                             return r;
                         }
+                    }
+                    Err(e) if e.is::<Interrupted>() => {
+                        bail!("interrupted: no job was running on the board")
                     }
                     Err(e) => {
                         last = Some(e);
@@ -231,11 +243,53 @@ fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
             Ok(BoardMessage::Aborted) => break Err(anyhow!("the board aborted the job")),
             Ok(BoardMessage::Refused(r)) => break Err(anyhow!("the board refused: {r}")),
             Ok(_) => {}
+            Err(e) if e.is::<Interrupted>() => break Err(abort(c)),
             Err(e) => break Err(e),
         }
     };
     bar.finish();
     out
+}
+
+/// Ctrl-C was pressed while the host waited for the board.
+#[derive(Debug)]
+struct Interrupted;
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("interrupted")
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
+/// Set by Ctrl-C, taken by the loops that wait for the board.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// After Ctrl-C during a job: ask the board to abort it and wait (up to the timeout, or a
+/// second Ctrl-C) for its answer, so that the board is not left running; the error to end
+/// with.
+fn abort(c: &mut Connection) -> anyhow::Error {
+    if c.send(&HostMessage::Abort).is_err() {
+        return anyhow!(
+            "interrupted: the abort could not be sent; the board may still run its job"
+        );
+    }
+    let deadline = Instant::now() + c.timeout;
+    loop {
+        match c.receive_until(deadline) {
+            Ok(BoardMessage::Aborted) => return anyhow!("interrupted: the board aborted its job"),
+            Ok(BoardMessage::Identified(_)) | Ok(BoardMessage::Refused(_)) => {
+                return anyhow!("interrupted: the board had just ended its job")
+            }
+            Ok(_) => {}
+            Err(_) => {
+                return anyhow!(
+                    "interrupted: the board did not confirm the abort; it may still run its job"
+                )
+            }
+        }
+    }
 }
 
 /// What `board` reports of a motor: the `identify` report's fields that a board sends.
@@ -311,6 +365,9 @@ impl BoardReport {
 
 /// Run `board`.
 pub fn run(a: &BoardArgs) -> Result<()> {
+    // Ctrl-C while a job runs aborts it on the board (see `abort`), then ends here. A
+    // handler that cannot be installed leaves Ctrl-C as it was.
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
     let mut c = Connection::open(a)?;
     let max_samples = hello(&mut c)?;
     let report = match &a.action {
