@@ -48,9 +48,15 @@ impl OwnedRecord {
         self.v.len()
     }
 
-    /// Time of sample `k`.
-    pub fn time(&self, k: usize) -> f64 {
-        self.t0 + k as f64 * self.dt as f64
+    /// The time of sample `k` as written: the step's shortest decimal (an f32 step of 1 ms is
+    /// 0.001 s, not 0.0010000000474974513) times `k`, rounded to six digits below the step.
+    pub fn time_text(&self, k: usize) -> String {
+        let step: f64 = self.dt.to_string().parse().unwrap_or(self.dt as f64);
+        let t = self.t0 + k as f64 * step;
+        let decimals = (6.0 - step.log10().floor()).clamp(0.0, 17.0) as usize;
+        let text = format!("{t:.decimals$}");
+        let text = text.trim_end_matches('0');
+        text.strip_suffix('.').unwrap_or(text).to_string()
     }
 
     /// File name for messages.
@@ -101,7 +107,7 @@ impl OwnedRecord {
         w.write_record(&header)?;
         for k in 0..self.len() {
             let mut row = vec![
-                format!("{}", self.time(k)),
+                self.time_text(k),
                 self.v[k].to_string(),
                 self.omega[k].to_string(),
             ];
@@ -373,6 +379,25 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn times_are_written_as_the_steps_shortest_decimal() {
+        let rec = OwnedRecord {
+            path: "r.csv".into(),
+            t0: 0.0,
+            dt: 1e-3,
+            v: vec![0.0; 4],
+            omega: vec![0.0; 4],
+            current: None,
+            load: None,
+        };
+        let times: Vec<String> = (0..4).map(|k| rec.time_text(k)).collect();
+        assert_eq!(times, ["0", "0.001", "0.002", "0.003"]);
+        // Far into a long record, no f32 residue either.
+        assert_eq!(rec.time_text(3_600_000), "3600");
+        let slow = OwnedRecord { dt: 0.25, t0: 1.5, ..rec };
+        assert_eq!(slow.time_text(3), "2.25");
+    }
 
     #[test]
     fn reads_optional_columns_ignores_others_and_round_trips() {

@@ -28,21 +28,23 @@ pub struct BoardArgs {
     #[arg(long)]
     pub port: String,
     /// Baud rate.
-    #[arg(long, default_value_t = 115_200)]
+    #[arg(long, global = true, default_value_t = 115_200)]
     pub baud: u32,
     /// Seconds to wait for each reply, at most a day (progress frames that show the job
     /// advancing restart the clock); a board busy with a job (commissioning at power-up) is
     /// waited for up to six times as long.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, global = true, default_value_t = 10.0)]
     pub timeout: f64,
     /// Random seed of identifications.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, global = true, default_value_t = 1)]
     pub seed: u64,
-    /// Write the result as JSON (the `identify` report's fields) here.
-    #[arg(long)]
+    /// Write the result as JSON here: `params`, `rmse_omega`, `evaluations` and
+    /// `identifiability {rank, free, parameters}` (what a board reports; see
+    /// docs/CONTRACTS.md).
+    #[arg(long, global = true)]
     pub json: Option<PathBuf>,
     /// No progress bar.
-    #[arg(long, short)]
+    #[arg(long, short, global = true)]
     pub quiet: bool,
     #[command(subcommand)]
     pub action: BoardAction,
@@ -295,6 +297,8 @@ fn abort(c: &mut Connection) -> anyhow::Error {
 /// What `board` reports of a motor: the `identify` report's fields that a board sends.
 #[derive(Serialize, Debug)]
 struct BoardReport {
+    /// Version of this report's schema ([`crate::report::SCHEMA_VERSION`]).
+    schema_version: u32,
     /// Motor parameters, and Coulomb friction when the board identified it.
     params: ByParam<Num>,
     /// Speed RMSE [rad/s].
@@ -334,6 +338,7 @@ impl BoardReport {
             })
             .collect::<Result<ByParam<ParamEstimate>>>()?;
         Ok(BoardReport {
+            schema_version: crate::report::SCHEMA_VERSION,
             params: parameters.iter().map(|(id, e)| (*id, e.value)).collect(),
             rmse_omega: Num(r.rmse_omega),
             evaluations: r.evaluations,

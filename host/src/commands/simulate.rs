@@ -11,7 +11,7 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
     eprintln!(
         "wrote {} samples ({} s at {} Hz) to {}",
         rec.len(),
-        rec.len() as f64 * rec.dt as f64,
+        rec.time_text(rec.len()),
         a.rate,
         a.out.display()
     );

@@ -14,6 +14,8 @@ pub const MISFIT_RATIO: f32 = 1.5;
 /// The whole `identify` report.
 #[derive(Serialize, Debug)]
 pub struct IdentifyReport {
+    /// Version of this report's schema ([`crate::report::SCHEMA_VERSION`]).
+    pub schema_version: u32,
     /// Parameters reported ([`reported_params`]).
     pub params: ByParam<Num>,
     /// Speed RMSE [rad/s].
@@ -233,6 +235,7 @@ impl IdentifyReport {
         mode: &'static str,
     ) -> IdentifyReport {
         IdentifyReport {
+            schema_version: crate::report::SCHEMA_VERSION,
             params: reported_params(id, spec),
             rmse_omega: Num(id.cost.rmse_omega),
             rmse_current: id.cost.rmse_current.map(Num),

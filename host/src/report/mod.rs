@@ -10,6 +10,10 @@ use motor_id_shared::fit::identifiability::{Identifiability, ParamCertainty};
 use motor_id_shared::ParamId;
 use serde::ser::{Serialize, SerializeMap, Serializer};
 
+/// Version of the JSON reports' schema (`identify`, `diagnose`, `board`): bumped when a field
+/// changes meaning or goes; fields are added without a bump (`docs/CONTRACTS.md`).
+pub const SCHEMA_VERSION: u32 = 1;
+
 /// An f32 as a report gives it: in JSON the shortest decimal that reads back to it, `null`
 /// when it is not finite.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -16,6 +16,8 @@ use serde::Serialize;
 /// The whole `diagnose` report.
 #[derive(Serialize, Debug)]
 pub struct DiagnoseReport {
+    /// Version of this report's schema ([`crate::report::SCHEMA_VERSION`]).
+    pub schema_version: u32,
     /// The model without effects.
     pub baseline: Baseline,
     /// Every effect of the catalogue added to the baseline, best held-out RMSE first.
@@ -281,6 +283,7 @@ impl DiagnoseReport {
             current,
         };
         DiagnoseReport {
+            schema_version: crate::report::SCHEMA_VERSION,
             baseline: Baseline {
                 train_rmse: Num(baseline.train_rmse),
                 holdout_rmse: Num(baseline.holdout_rmse),
@@ -410,6 +413,7 @@ mod tests {
     /// A report whose verdict is `tc = 0.1`, with `second` on top when given.
     fn report(second: Option<&'static str>) -> DiagnoseReport {
         DiagnoseReport {
+            schema_version: crate::report::SCHEMA_VERSION,
             baseline: Baseline {
                 train_rmse: Num(0.61234),
                 holdout_rmse: Num(0.7),
@@ -520,6 +524,7 @@ mod tests {
     #[test]
     fn json_has_the_contract_fields() {
         let json = serde_json::to_value(report(None)).unwrap();
+        assert_eq!(json["schema_version"], 1);
         let v = &json["verdict"];
         assert_eq!(v["effect"], "coulomb_friction");
         assert_eq!(v["effect_params"]["tc"], 0.1);
