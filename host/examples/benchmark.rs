@@ -65,7 +65,7 @@ fn make_case(seed: u64) -> Case {
         omega: &mut omega,
         current: &mut current,
     };
-    synthesize(&truth, &exp, dt, Noise::default(), 0, b).unwrap();
+    synthesize(&truth, &exp, dt, Noise::default(), 0, None, b).unwrap();
     let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, y| m.max(y.abs()));
     let noise = Noise {
         omega: 0.01 * peak(&omega),
@@ -77,7 +77,7 @@ fn make_case(seed: u64) -> Case {
         omega: &mut omega,
         current: &mut current,
     };
-    synthesize(&truth, &exp, dt, noise, seed ^ 0x5eed, b).unwrap();
+    synthesize(&truth, &exp, dt, noise, seed ^ 0x5eed, None, b).unwrap();
     Case {
         truth,
         dt,

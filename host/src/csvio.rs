@@ -28,6 +28,9 @@ pub struct OwnedRecord {
     pub current: Option<Vec<f32>>,
     /// Known load torque [N m].
     pub load: Option<Vec<f32>>,
+    /// First sample of a coast-down (the `bridge` column is 0 from there to the end: every
+    /// bridge switch off, no current, the voltage not applied), if the record has one.
+    pub coast_from: Option<usize>,
 }
 
 impl OwnedRecord {
@@ -39,7 +42,7 @@ impl OwnedRecord {
             omega: &self.omega,
             current: self.current.as_deref().filter(|_| use_current),
             load: self.load.as_deref(),
-            coast_from: None,
+            coast_from: self.coast_from,
         }
     }
 
@@ -86,6 +89,7 @@ impl OwnedRecord {
             && self.omega == other.omega
             && self.current == other.current
             && self.load == other.load
+            && self.coast_from == other.coast_from
     }
 
     /// Write as record CSV.
@@ -104,6 +108,9 @@ impl OwnedRecord {
         if self.load.is_some() {
             header.push("tl");
         }
+        if self.coast_from.is_some() {
+            header.push("bridge");
+        }
         w.write_record(&header)?;
         for k in 0..self.len() {
             let mut row = vec![
@@ -116,6 +123,9 @@ impl OwnedRecord {
             }
             if let Some(l) = &self.load {
                 row.push(l[k].to_string());
+            }
+            if let Some(c) = self.coast_from {
+                row.push(if k < c { "1" } else { "0" }.into());
             }
             w.write_record(&row)?;
         }
@@ -142,7 +152,7 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
         bail!("empty file");
     }
     let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
-    for name in ["t", "v", "omega", "i", "tl"] {
+    for name in ["t", "v", "omega", "i", "tl", "bridge"] {
         if header
             .iter()
             .filter(|h| h.eq_ignore_ascii_case(name))
@@ -170,13 +180,14 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
                 None => "",
             };
             bail!(
-                "missing column(s) {} (header is '{}'; need t, v, omega, optional i, tl){hint}",
+                "missing column(s) {} (header is '{}'; need t, v, omega, optional i, tl, bridge){hint}",
                 missing.join(", "),
                 joined.escape_default()
             );
         }
     };
-    let (i_col, tl_col) = (col("i"), col("tl"));
+    let (i_col, tl_col, bridge_col) = (col("i"), col("tl"), col("bridge"));
+    let mut bridge = Vec::new();
     let mut t = Vec::new();
     let mut v = Vec::new();
     let mut omega = Vec::new();
@@ -218,6 +229,13 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
         if let (Some(c), Some(out)) = (tl_col, load.as_mut()) {
             out.push(field(c, "tl")? as f32);
         }
+        if let Some(c) = bridge_col {
+            let b = field(c, "bridge")?;
+            if b != 0.0 && b != 1.0 {
+                bail!("line {line}: bridge = {b}: 1 (driven) or 0 (open circuit)");
+            }
+            bridge.push((b == 1.0, line));
+        }
     }
     if t.is_empty() {
         bail!("no data rows");
@@ -229,6 +247,7 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
         bail!("omega is zero throughout: the motor never turned, there is nothing to fit");
     }
     let dt = uniform_step(&t, &lines)?;
+    let coast_from = coast_from(&bridge)?;
     let rec = OwnedRecord {
         path: path.to_path_buf(),
         t0: t[0],
@@ -237,9 +256,32 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
         omega,
         current,
         load,
+        coast_from,
     };
     rec.as_record(true).validate().map_err(|e| anyhow!("{e}"))?;
     Ok(rec)
+}
+
+/// The first open-circuit sample of a `bridge` column (`(driven, line)` per row; empty: no
+/// column): the model opens the bridge once, so the open part must run to the end, after a
+/// driven start.
+fn coast_from(bridge: &[(bool, u64)]) -> Result<Option<usize>> {
+    let Some(first) = bridge.iter().position(|(driven, _)| !driven) else {
+        return Ok(None);
+    };
+    if first == 0 {
+        bail!(
+            "line {}: bridge is 0 from the first row: a coast-down follows a driven part",
+            bridge[0].1
+        );
+    }
+    if let Some((_, line)) = bridge[first..].iter().find(|(driven, _)| *driven) {
+        bail!(
+            "line {line}: bridge is 1 again after the open circuit from line {}: the model opens the bridge once, to the end of the record",
+            bridge[first].1
+        );
+    }
+    Ok(Some(first))
 }
 
 /// The mean step of strictly increasing, uniformly spaced times (`lines[k]`: the file line
@@ -369,6 +411,7 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
         omega,
         current: None,
         load: None,
+        coast_from: None,
     };
     rec.as_record(false)
         .validate()
@@ -390,12 +433,17 @@ mod tests {
             omega: vec![0.0; 4],
             current: None,
             load: None,
+            coast_from: None,
         };
         let times: Vec<String> = (0..4).map(|k| rec.time_text(k)).collect();
         assert_eq!(times, ["0", "0.001", "0.002", "0.003"]);
         // Far into a long record, no f32 residue either.
         assert_eq!(rec.time_text(3_600_000), "3600");
-        let slow = OwnedRecord { dt: 0.25, t0: 1.5, ..rec };
+        let slow = OwnedRecord {
+            dt: 0.25,
+            t0: 1.5,
+            ..rec
+        };
         assert_eq!(slow.time_text(3), "2.25");
     }
 

@@ -55,6 +55,10 @@ pub struct SimulateArgs {
     /// Leave the current column out of the CSV (a tacho-only record, as in the seed).
     #[arg(long)]
     pub speed_only: bool,
+    /// After the experiment, open the bridge for this many seconds: a coast-down, in which
+    /// friction alone slows the shaft (the CSV gets a `bridge` column: 1 driven, 0 open).
+    #[arg(long, value_name = "S")]
+    pub coast: Option<f64>,
 }
 
 /// Build the simulated record described by `a`.
@@ -91,7 +95,14 @@ pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
         Some(_) => bail!("--duration must be > 0"),
         None => (settling_duration(&p, profile) as f64).clamp(0.05, 120.0),
     };
-    let n = (duration * a.rate).round() as usize;
+    let coast = match a.coast {
+        Some(c) if c.is_finite() && c > 0.0 => c,
+        Some(_) => bail!("--coast must be a positive number of seconds"),
+        None => 0.0,
+    };
+    let driven = (duration * a.rate).round() as usize;
+    let n = ((duration + coast) * a.rate).round() as usize;
+    let coast_from = (a.coast.is_some() && n > driven).then_some(driven);
     if n < motor_id_shared::model::record::MIN_SAMPLES {
         bail!("{duration} s at {} Hz gives only {n} samples", a.rate);
     }
@@ -125,9 +136,10 @@ pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
         omega: &mut omega,
         current: &mut current,
     };
-    synthesize(&p, &experiment, dt, noise, a.seed, buffers).map_err(|e| anyhow!("{e}"))?;
+    synthesize(&p, &experiment, dt, noise, a.seed, coast_from, buffers)
+        .map_err(|e| anyhow!("{e}"))?;
     if let Some(k) = omega.iter().position(|x| !x.is_finite()) {
-        bail!("the simulation left finite numbers at sample {k}: check the motor parameters");
+        bail!("the simulation gave non-finite numbers at sample {k}: check the motor parameters");
     }
     Ok(OwnedRecord {
         path: a.out.clone(),
@@ -137,5 +149,6 @@ pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
         omega,
         current: (!a.speed_only).then_some(current),
         load: experiment.has_load().then_some(tl),
+        coast_from,
     })
 }

@@ -57,7 +57,7 @@ impl Owned {
             omega: &mut o.omega,
             current: &mut o.current,
         };
-        synthesize(p, &exp, dt, noise, seed, buffers).unwrap();
+        synthesize(p, &exp, dt, noise, seed, None, buffers).unwrap();
         o
     }
     pub fn record(&self, with_current: bool, with_load: bool) -> Record<'_> {

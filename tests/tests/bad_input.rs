@@ -88,6 +88,27 @@ fn broken_records_are_refused_with_one_line() {
             "line 6: v = '1e30' is beyond",
         ),
         (
+            "bridge2.csv",
+            rows(20, |k| {
+                format!("{},{}", good(k), if k == 3 { 2 } else { 1 })
+            })
+            .replacen("omega", "omega,bridge", 1),
+            "bridge = 2: 1 (driven) or 0 (open circuit)",
+        ),
+        (
+            "reclosed.csv",
+            rows(20, |k| {
+                format!("{},{}", good(k), u8::from(!(10..15).contains(&k)))
+            })
+            .replacen("omega", "omega,bridge", 1),
+            "bridge is 1 again after the open circuit",
+        ),
+        (
+            "openfirst.csv",
+            rows(20, |k| format!("{},0", good(k))).replacen("omega", "omega,bridge", 1),
+            "bridge is 0 from the first row",
+        ),
+        (
             "still.csv",
             rows(20, |k| format!("{},{},0", k as f64 * 0.01, 10.0)),
             "omega is zero throughout",

@@ -673,3 +673,64 @@ fn identify_judges_each_channel_and_flags_a_current_offset_on_the_current() {
     let io = report["params"]["io"].as_f64().unwrap();
     assert!((io / 0.3 - 1.0).abs() < 0.05, "io = {io}");
 }
+
+#[test]
+fn a_bench_coast_down_identifies_coulomb_friction_apart_from_viscous() {
+    // Voltage steps, then the bridge opened for as long again: the shaft slows under
+    // friction alone, which separates Coulomb from viscous friction (seed Eq. 4, i = 0).
+    let dir = tempfile::tempdir().unwrap();
+    let mut input = experiment(Shape::Steps, 24.0, RATE, 1.2);
+    let driven = input.len();
+    input.v.extend(std::iter::repeat_n(0.0, driven / 2));
+    let input = input.coast_from(driven);
+    let friction = Effects {
+        tc: 0.1,
+        ..Effects::default()
+    };
+    let r = run(FAST, friction, noisy(21), input.clone());
+    let report = identify(dir.path(), "coast", &r, &["--bounds", "tc=0:0.5"]);
+    let tc = param(&report, "tc");
+    assert!((tc / 0.1 - 1.0).abs() < 0.02, "tc = {tc}");
+    assert_eq!(
+        report["identifiability"]["parameters"]["tc"]["pinned"],
+        true
+    );
+    // `motor-id simulate --coast` writes the same kind of record, read back alike.
+    let sim = dir.path().join("simulated.csv");
+    run_ok(&[
+        "simulate",
+        "--motor",
+        &FAST.cli(),
+        "--profile",
+        "steps",
+        "--rate",
+        "2000",
+        "--duration",
+        "1.2",
+        "--voltage",
+        "24",
+        "--coast",
+        "0.6",
+        "--effect",
+        "coulomb_friction:tc=0.1",
+        "--out",
+        s(&sim),
+    ]);
+    let product = csv::read(&sim);
+    let bridge = product.col("bridge");
+    assert_eq!(bridge.iter().position(|b| *b == 0.0), Some(driven));
+    assert!(bridge[driven..].iter().all(|b| *b == 0.0));
+    // And the reference plant on the product's input agrees with it through the coast.
+    let reference = run(FAST, friction, Sensors::IDEAL, product.input());
+    let (w, want) = (product.col("omega"), &reference.omega);
+    let worst = w
+        .iter()
+        .zip(want)
+        .skip(driven)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 1e-3 * reference.peak_speed() + max_step(&reference.omega_true),
+        "{worst}"
+    );
+}

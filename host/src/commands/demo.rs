@@ -44,6 +44,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         voltage: 50.0,
         load_torque: None,
         speed_only: false,
+        coast: None,
     };
     let rec = simulate(&sim)?;
     rec.write(&csv)?;

@@ -36,7 +36,9 @@ impl Columns {
             dt: (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64,
             v: self.col("v").to_vec(),
             tl: self.get("tl").map(<[f64]>::to_vec),
-            open_from: None,
+            open_from: self
+                .get("bridge")
+                .and_then(|b| b.iter().position(|x| *x == 0.0)),
         }
     }
 }
@@ -61,12 +63,17 @@ pub fn read(path: &Path) -> Columns {
 }
 
 /// Write `run` as a record CSV: `t,v,omega`, then `i` when `with_current`, then `tl` when
-/// the input has a load column.
+/// the input has a load column, then `bridge` (1 driven, 0 open) when it coasts.
 pub fn write(run: &Run, path: &Path, with_current: bool) {
     let input = &run.input;
     let mut text = String::from("t,v,omega");
     text += if with_current { ",i" } else { "" };
-    text += if input.tl.is_some() { ",tl\n" } else { "\n" };
+    text += if input.tl.is_some() { ",tl" } else { "" };
+    text += if input.open_from.is_some() {
+        ",bridge\n"
+    } else {
+        "\n"
+    };
     for k in 0..input.len() {
         let t = k as f64 * input.dt;
         write!(text, "{t},{},{}", input.v[k], run.omega[k]).unwrap();
@@ -75,6 +82,9 @@ pub fn write(run: &Run, path: &Path, with_current: bool) {
         }
         if let Some(tl) = &input.tl {
             write!(text, ",{}", tl[k]).unwrap();
+        }
+        if let Some(from) = input.open_from {
+            text += if k < from { ",1" } else { ",0" };
         }
         text.push('\n');
     }

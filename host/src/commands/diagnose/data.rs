@@ -42,6 +42,7 @@ pub fn record(name: &str, v: Vec<f32>, omega: Vec<f32>) -> OwnedRecord {
         omega,
         current: None,
         load: None,
+        coast_from: None,
     }
 }
 
