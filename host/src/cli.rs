@@ -1,6 +1,6 @@
 //! The command-line tree (docs/CONTRACTS.md) and its dispatch to the commands.
 
-use crate::commands::{board, demo, diagnose, identify, import_scope, simulate};
+use crate::commands::{board, demo, diagnose, identify, import_scope, simulate, validate};
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
@@ -23,6 +23,9 @@ enum Command {
     /// Locate the sim-to-real gap: where the model misfits, which unmodelled effect causes it,
     /// how far the misfit shrinks with it, judged on held-out records.
     Diagnose(diagnose::DiagnoseArgs),
+    /// Check identified parameters on new records (seed Figs. 11-14): the prediction's
+    /// misfit against each record's noise, and where it misfits most.
+    Validate(validate::ValidateArgs),
     /// Talk to a drive board (or its QEMU build) over a serial port.
     Board(board::BoardArgs),
     /// Run the whole job on a built-in default: the seed's motor, simulated, identified from
@@ -39,5 +42,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Demo(a) => demo::run(&a),
         Command::Diagnose(a) => diagnose::run(&a),
         Command::Board(a) => board::run(&a),
+        Command::Validate(a) => validate::run(&a),
     }
 }

@@ -734,3 +734,59 @@ fn a_bench_coast_down_identifies_coulomb_friction_apart_from_viscous() {
         "{worst}"
     );
 }
+
+#[test]
+fn validate_puts_the_true_parameters_at_the_noise_floor_and_perturbed_ones_above_it() {
+    // Seed Figs. 11-14 on the reference plant: a start-up, a load step and a reversal.
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    for (k, shape) in [
+        Shape::Start,
+        Shape::LoadStep { torque: 0.3 },
+        Shape::Reversal,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let r = run(
+            FAST,
+            Effects::default(),
+            noisy(30 + k as u64),
+            experiment(shape, 24.0, RATE, 1.2),
+        );
+        let path = dir.path().join(format!("rec{k}.csv"));
+        csv::write(&r, &path, true);
+        files.push(path);
+    }
+    let check = |kv_scale: f64| {
+        let [ra, la, j, b, kv] = FAST.values();
+        let params = dir.path().join(format!("params_{kv_scale}.json"));
+        std::fs::write(
+            &params,
+            format!(
+                r#"{{"params":{{"ra":{ra},"la":{la},"j":{j},"b":{b},"kv":{}}}}}"#,
+                kv * kv_scale
+            ),
+        )
+        .unwrap();
+        let out = dir.path().join(format!("validate_{kv_scale}.json"));
+        let mut args = vec!["validate", "--params", s(&params), "--json", s(&out)];
+        args.extend(files.iter().map(|f| s(f)));
+        run_ok(&args);
+        json(&out)
+    };
+    let truth = check(1.0);
+    assert_eq!(truth["all_adequate"], true, "{truth}");
+    for rec in truth["records"].as_array().unwrap() {
+        let ratio = rec["speed"]["rmse_over_noise"].as_f64().unwrap();
+        assert!(ratio < 1.1, "{rec}");
+        let ratio_i = rec["current"]["rmse_over_noise"].as_f64().unwrap();
+        assert!(ratio_i < 1.1, "{rec}");
+    }
+    let off = check(1.1);
+    assert_eq!(off["all_adequate"], false, "{off}");
+    for rec in off["records"].as_array().unwrap() {
+        let ratio = rec["speed"]["rmse_over_noise"].as_f64().unwrap();
+        assert!(ratio > 2.0, "{rec}");
+    }
+}

@@ -1,5 +1,6 @@
 //! `motor-id demo`: the whole job on a built-in default: the seed's motor simulated, then
-//! identified from speed only (the seed's workflow) and from speed and current.
+//! identified from speed only (the seed's workflow) and from speed and current, and the
+//! latter checked on the seed's validation experiments.
 
 use crate::fit::{fit, FitOptions};
 use crate::fit_plot::plot_fit;
@@ -7,9 +8,11 @@ use crate::output::write_json;
 use crate::report::identify::IdentifyReport;
 use crate::report::summary::summary;
 use crate::simulation::{simulate, SimulateArgs};
+use crate::validation::{check, plot};
 use anyhow::{Context, Result};
 use clap::Args;
 use motor_id_shared::fit::identify::Pipeline;
+use motor_id_shared::ModelParams;
 use std::path::PathBuf;
 
 /// Arguments of `demo`.
@@ -55,6 +58,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         csv.display()
     );
     let records = [rec];
+    let mut identified = ModelParams::SEED_MOTOR;
     for (label, speed_only, stem) in [
         ("speed only, as the seed paper fits", true, "speed_only"),
         (
@@ -71,6 +75,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
             ..FitOptions::default()
         };
         let f = fit(&records, &opts, Pipeline::Default)?;
+        identified = f.result.params;
         print!(
             "{}",
             summary(&f.result, &f.spec, records[0].len(), f.with_current)
@@ -84,5 +89,41 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         plot_fit(&png, &records, &f)?;
         println!("report {} and plot {}", json.display(), png.display());
     }
+    validation_set(a, &sim, &identified)
+}
+
+/// The seed paper's validation experiments (Figs. 11-14: starting at two voltages, a load
+/// change, a change of voltage to its opposite), simulated on the seed's motor with other
+/// noise, and the parameters identified from speed and current checked on them.
+fn validation_set(a: &DemoArgs, base: &SimulateArgs, p: &ModelParams) -> Result<()> {
+    println!("\n== validate the parameters identified with current on new experiments");
+    let experiments = [
+        ("start_25V", "start", 25.0),
+        ("start_50V", "start", 50.0),
+        ("load_change", "load", 50.0),
+        ("voltage_reversal", "reversal", 50.0),
+    ];
+    let mut records = Vec::new();
+    for (k, (name, profile, voltage)) in experiments.into_iter().enumerate() {
+        let out = a.out_dir.join(format!("validation_{name}.csv"));
+        let args = SimulateArgs {
+            profile: profile.into(),
+            voltage,
+            duration: None,
+            out: out.clone(),
+            seed: a.seed.wrapping_add(100 + k as u64),
+            ..base.clone()
+        };
+        let rec = simulate(&args)?;
+        rec.write(&out)?;
+        records.push(rec);
+    }
+    let (report, predicted) = check(p, &records, false)?;
+    print!("{}", report.text());
+    let json = a.out_dir.join("validation.json");
+    write_json(&json, &report)?;
+    let png = a.out_dir.join("validation.png");
+    plot(&png, &records, &predicted)?;
+    println!("report {} and plot {}", json.display(), png.display());
     Ok(())
 }

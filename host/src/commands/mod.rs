@@ -7,3 +7,4 @@ pub mod diagnose;
 pub mod identify;
 pub mod import_scope;
 pub mod simulate;
+pub mod validate;

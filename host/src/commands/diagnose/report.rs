@@ -96,6 +96,9 @@ pub struct Verdict {
     pub second: Second,
     /// Every effect named, in the order they were added (empty: none).
     pub effects: Vec<NamedEffect>,
+    /// The final model's parameters (the baseline's with no effect named), as `identify`
+    /// reports them: what `validate --params` reads.
+    pub params: ByParam<Num>,
     /// Run-to-run spread of the held-out records that have repeats [rad/s] (`null`: none).
     pub repeatability_floor: Option<Num>,
     /// The held-out misfit after every named effect is still significantly above the floor
@@ -277,6 +280,7 @@ impl DiagnoseReport {
                     holdout_rmse_after: Num(s.holdout_rmse),
                 })
                 .collect(),
+            params: reported_params(&after.fit.result, &after.fit.spec),
             repeatability_floor: repeatability.holdout_floor(),
             unexplained: remainder.is_some() || current.as_ref().is_some_and(|c| c.unexplained),
             remainder,
@@ -454,6 +458,7 @@ mod tests {
                         holdout_rmse_after: Num(after),
                     })
                     .collect(),
+                params: ByParam(vec![]),
                 repeatability_floor: None,
                 unexplained: false,
                 remainder: None,

@@ -1,0 +1,45 @@
+//! `motor-id validate`: identified parameters checked on new experiments (seed Figs. 11-14:
+//! start-up, load change, speed change); the checking itself is [`crate::validation`].
+
+use crate::csvio::OwnedRecord;
+use crate::output::write_json;
+use crate::validation::{check, plot, read_params};
+use anyhow::Result;
+use clap::Args;
+use std::path::PathBuf;
+
+/// Arguments of `validate`.
+#[derive(Args, Debug)]
+pub struct ValidateArgs {
+    /// The parameters: a JSON report of `identify` or `board` (its `params`) or of
+    /// `diagnose` (its verdict's model, `verdict.params`).
+    #[arg(long, value_name = "REPORT.json")]
+    pub params: PathBuf,
+    /// Record CSVs to check the parameters on.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Judge the speed only, even where a record has current.
+    #[arg(long)]
+    pub speed_only: bool,
+    /// Write the JSON report here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write a PNG plot (measured vs predicted speed of each record) here.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// Run `validate`.
+pub fn run(a: &ValidateArgs) -> Result<()> {
+    let p = read_params(&a.params)?;
+    let records = OwnedRecord::read_all(&a.files)?;
+    let (report, predicted) = check(&p, &records, a.speed_only)?;
+    print!("{}", report.text());
+    if let Some(path) = &a.json {
+        write_json(path, &report)?;
+    }
+    if let Some(path) = &a.plot {
+        plot(path, &records, &predicted)?;
+    }
+    Ok(())
+}
