@@ -1,6 +1,6 @@
 //! The command-line tree (docs/CONTRACTS.md) and its dispatch to the commands.
 
-use crate::commands::{board, demo, diagnose, identify, import_scope, simulate, validate};
+use crate::commands::{board, demo, diagnose, identify, import_scope, simulate, tune, validate};
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
@@ -26,6 +26,9 @@ enum Command {
     /// Check identified parameters on new records (seed Figs. 11-14): the prediction's
     /// misfit against each record's noise, and where it misfits most.
     Validate(validate::ValidateArgs),
+    /// Current-loop and speed-loop PI gains from identified parameters, with their step
+    /// responses on the identified model.
+    Tune(tune::TuneArgs),
     /// Talk to a drive board (or its QEMU build) over a serial port.
     Board(board::BoardArgs),
     /// Run the whole job on a built-in default: the seed's motor, simulated, identified from
@@ -43,5 +46,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Diagnose(a) => diagnose::run(&a),
         Command::Board(a) => board::run(&a),
         Command::Validate(a) => validate::run(&a),
+        Command::Tune(a) => tune::run(&a),
     }
 }

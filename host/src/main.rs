@@ -12,6 +12,7 @@ mod progress;
 mod report;
 mod simulation;
 mod spec;
+mod tuning;
 mod validation;
 
 use clap::Parser;

@@ -195,3 +195,51 @@ fn paper_faithful_mode_reproduces_the_seed_workflow() {
         trace[0]
     );
 }
+
+#[test]
+fn tune_gives_gains_whose_current_loop_meets_the_asked_bandwidth() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("steps.csv");
+    simulate(
+        &rec,
+        &[
+            "--profile",
+            "steps",
+            "--rate",
+            "200",
+            "--noise-omega",
+            "0.2",
+            "--noise-current",
+            "0.02",
+        ],
+    );
+    let report = dir.path().join("id.json");
+    run_ok(&["identify", s(&rec), "--json", s(&report), "-q"]);
+    let tune = dir.path().join("tune.json");
+    let plot = dir.path().join("tune.png");
+    let text = run_ok(&[
+        "tune",
+        "--params",
+        s(&report),
+        "--current-bandwidth",
+        "300",
+        "--json",
+        s(&tune),
+        "--plot",
+        s(&plot),
+    ]);
+    assert!(text.contains("symmetric optimum"), "{text}");
+    let t = json(&tune);
+    assert_eq!(t["schema_version"], 1);
+    let la = json(&report)["params"]["la"].as_f64().unwrap();
+    let kp = t["current_loop"]["kp"].as_f64().unwrap();
+    // Pole-zero cancellation: Kp = La wc.
+    assert!(
+        (kp / (la * std::f64::consts::TAU * 300.0) - 1.0).abs() < 1e-5,
+        "{kp}"
+    );
+    let measured = t["current_step"]["bandwidth_hz"].as_f64().unwrap();
+    assert!((measured / 300.0 - 1.0).abs() < 0.1, "{measured}");
+    assert!(t["speed_loop"]["kp"].as_f64().unwrap() > 0.0);
+    assert!(std::fs::metadata(&plot).unwrap().len() > 0);
+}

@@ -7,4 +7,5 @@ pub mod diagnose;
 pub mod identify;
 pub mod import_scope;
 pub mod simulate;
+pub mod tune;
 pub mod validate;
