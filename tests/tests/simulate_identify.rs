@@ -243,3 +243,74 @@ fn tune_gives_gains_whose_current_loop_meets_the_asked_bandwidth() {
     assert!(t["speed_loop"]["kp"].as_f64().unwrap() > 0.0);
     assert!(std::fs::metadata(&plot).unwrap().len() > 0);
 }
+
+#[test]
+fn a_stuck_search_is_widened_before_the_model_is_blamed() {
+    // A motor on which the default pipeline's search stops in a local minimum from speed
+    // only (rmse 5 x the noise); the seed's FFO reaches the floor.
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("stuck.csv");
+    simulate(
+        &rec,
+        &[
+            "--motor",
+            "ra=0.6252534,la=0.8401117,j=0.0011193017,b=0.00088091264,kv=1.6004144",
+            "--profile",
+            "steps",
+            "--rate",
+            "102.08",
+            "--noise-omega",
+            "0.4615",
+            "--noise-current",
+            "0.00831",
+            "--seed",
+            "1",
+        ],
+    );
+    let report = dir.path().join("id.json");
+    let text = run_ok(&[
+        "identify",
+        s(&rec),
+        "--speed-only",
+        "--json",
+        s(&report),
+        "-q",
+    ]);
+    let r = json(&report);
+    assert!(
+        r["search_widened"].as_u64().unwrap() >= 1,
+        "{}",
+        r["search_widened"]
+    );
+    assert_eq!(
+        r["fit_quality"]["model_adequate"], true,
+        "{}",
+        r["fit_quality"]
+    );
+    assert!(!text.contains("misses something"), "{text}");
+    // A motor with Coulomb friction fitted without it: a wider search agrees (no better fit),
+    // and only then is the model blamed.
+    let friction = dir.path().join("friction.csv");
+    simulate(
+        &friction,
+        &[
+            "--profile",
+            "reversal",
+            "--rate",
+            "100",
+            "--effect",
+            "coulomb_friction:tc=0.3",
+            "--noise-omega",
+            "0.2",
+            "--noise-current",
+            "0.02",
+        ],
+    );
+    let report = dir.path().join("friction.json");
+    let text = run_ok(&["identify", s(&friction), "--json", s(&report), "-q"]);
+    let r = json(&report);
+    assert!(r["search_widened"].as_u64().unwrap() >= 1);
+    assert_eq!(r["fit_quality"]["model_adequate"], false);
+    assert!(text.contains("the search was widened"), "{text}");
+    assert!(text.contains("misses something"), "{text}");
+}

@@ -78,12 +78,24 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         identified = f.result.params;
         print!(
             "{}",
-            summary(&f.result, &f.spec, records[0].len(), f.with_current)
+            summary(
+                &f.result,
+                &f.spec,
+                records[0].len(),
+                f.with_current,
+                f.widened
+            )
         );
         let json = a.out_dir.join(format!("{stem}.json"));
         let names = vec![csv.display().to_string()];
-        let report =
-            IdentifyReport::new(&f.result, &f.spec, names, a.seed, Pipeline::Default.name());
+        let report = IdentifyReport::new(
+            &f.result,
+            &f.spec,
+            names,
+            a.seed,
+            Pipeline::Default.name(),
+            f.widened,
+        );
         write_json(&json, &report)?;
         let png = a.out_dir.join(format!("{stem}.png"));
         plot_fit(&png, &records, &f)?;

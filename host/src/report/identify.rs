@@ -34,6 +34,9 @@ pub struct IdentifyReport {
     pub fitness: Num,
     /// How the fit compares to the noise.
     pub fit_quality: FitQuality,
+    /// Widened searches run after the pipeline because its fit stayed above the noise (0:
+    /// none needed); a fit still flagged then is the model's, not the search's.
+    pub search_widened: u32,
     /// Whether the search ran to its end.
     pub completed: bool,
     /// Best fitness by model evaluations.
@@ -233,6 +236,7 @@ impl IdentifyReport {
         records: Vec<String>,
         seed: u64,
         mode: &'static str,
+        search_widened: u32,
     ) -> IdentifyReport {
         IdentifyReport {
             schema_version: crate::report::SCHEMA_VERSION,
@@ -248,6 +252,7 @@ impl IdentifyReport {
             },
             fitness: Num(id.cost.fitness()),
             fit_quality: FitQuality::of(id),
+            search_widened,
             completed: id.completed,
             convergence: id
                 .trace

@@ -25,6 +25,7 @@ pub fn summary(
     spec: &ProblemSpec,
     samples: usize,
     with_current: bool,
+    widened: u32,
 ) -> String {
     let mut s = String::new();
     let ident = &id.identifiability;
@@ -67,6 +68,14 @@ pub fn summary(
         s += &format!(", rmse_current = {rc:.6} A");
     }
     s += "\n";
+    if widened > 0 {
+        s +=
+            &format!(
+            "the pipeline's fit stayed above the noise: the search was widened {widened} time(s) \
+             (a wider FFO{}) and the best fit kept\n",
+            if widened > 1 { ", then the seed's full FFO" } else { "" }
+        );
+    }
     let quality = FitQuality::of(id);
     let channels = [("speed", Some(quality.speed)), ("current", quality.current)];
     for (name, q) in channels.into_iter().filter_map(|(n, q)| Some((n, q?))) {
