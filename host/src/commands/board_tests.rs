@@ -1,0 +1,63 @@
+//! Tests of the board report read from a board's message.
+
+use super::*;
+use motor_id_shared::wire::protocol::Estimate;
+
+/// A report of the five motor parameters and, with `friction`, `tc` as its sixth.
+fn motor(friction: Option<(f32, f32)>) -> MotorReport {
+    let values = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
+    let std = [0.01, f32::NAN, 1e-4, 2e-5, 3e-4];
+    let tc = friction.map(|(value, std)| (ParamId::Tc.index(), value, std));
+    MotorReport {
+        estimates: (0..5)
+            .map(|k| (k, values[k], std[k]))
+            .chain(tc)
+            .map(|(k, value, std)| Estimate {
+                param: k as u8,
+                value,
+                std,
+            })
+            .collect(),
+        rmse_omega: 0.25,
+        evaluations: 31,
+        rank: 4,
+    }
+}
+
+#[test]
+fn text_and_json_read_the_same_estimates() {
+    let report = BoardReport::new(&motor(Some((0.1, 0.002)))).unwrap();
+    let text = report.text();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 7);
+    assert_eq!(lines[0], "  ra  = 3.412          +- 1.000e-2");
+    assert_eq!(lines[1], "  la  = 0.0573         NOT pinned");
+    assert_eq!(lines[5], "  tc  = 0.1            +- 2.000e-3");
+    assert_eq!(lines[6], "rmse_omega = 0.25 rad/s, 31 evaluations, rank 4");
+    let json = serde_json::to_value(&report).unwrap();
+    assert_eq!(json["params"]["tc"], 0.1);
+    assert_eq!(json["identifiability"]["free"], 6);
+    assert_eq!(
+        json["identifiability"]["parameters"]["la"]["std"],
+        serde_json::Value::Null
+    );
+    assert_eq!(json["identifiability"]["parameters"]["la"]["pinned"], false);
+    assert_eq!(json["identifiability"]["parameters"]["tc"]["std"], 0.002);
+}
+
+#[test]
+fn without_friction_no_tc() {
+    let report = BoardReport::new(&motor(None)).unwrap();
+    assert_eq!(report.text().lines().count(), 6);
+    let json = serde_json::to_value(&report).unwrap();
+    assert!(json["params"].get("tc").is_none());
+    assert_eq!(json["identifiability"]["free"], 5);
+}
+
+#[test]
+fn a_parameter_code_this_host_does_not_know_is_an_error() {
+    let mut r = motor(None);
+    r.estimates[4].param = 200;
+    let err = BoardReport::new(&r).unwrap_err().to_string();
+    assert_eq!(err, "the board reports an unknown parameter (code 200)");
+}
