@@ -1,6 +1,8 @@
 //! The command-line tree (docs/CONTRACTS.md) and its dispatch to the commands.
 
-use crate::commands::{board, demo, diagnose, identify, import_scope, simulate, tune, validate};
+use crate::commands::{
+    board, compare, demo, diagnose, identify, import_scope, simulate, tune, validate,
+};
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
@@ -29,6 +31,8 @@ enum Command {
     /// Current-loop and speed-loop PI gains from identified parameters, with their step
     /// responses on the identified model.
     Tune(tune::TuneArgs),
+    /// Compare optimisers on the same records, objective and budget (seed Table 3).
+    Compare(compare::CompareArgs),
     /// Talk to a drive board (or its QEMU build) over a serial port.
     Board(board::BoardArgs),
     /// Run the whole job on a built-in default: the seed's motor, simulated, identified from
@@ -47,5 +51,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Board(a) => board::run(&a),
         Command::Validate(a) => validate::run(&a),
         Command::Tune(a) => tune::run(&a),
+        Command::Compare(a) => compare::run_compare(&a),
     }
 }

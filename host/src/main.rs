@@ -3,6 +3,7 @@
 
 mod cli;
 mod commands;
+mod comparison;
 mod csvio;
 mod fit;
 mod fit_plot;

@@ -314,3 +314,67 @@ fn a_stuck_search_is_widened_before_the_model_is_blamed() {
     assert!(text.contains("the search was widened"), "{text}");
     assert!(text.contains("misses something"), "{text}");
 }
+
+#[test]
+fn compare_runs_every_optimiser_on_the_same_budget_reproducibly() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("steps.csv");
+    simulate(
+        &rec,
+        &[
+            "--profile",
+            "steps",
+            "--rate",
+            "100",
+            "--duration",
+            "30",
+            "--noise-omega",
+            "0.5",
+            "--noise-current",
+            "0.02",
+        ],
+    );
+    let report = |name: &str| {
+        let out = dir.path().join(name);
+        run_ok(&[
+            "compare",
+            s(&rec),
+            "--runs",
+            "2",
+            "--budget",
+            "1500",
+            "-q",
+            "--json",
+            s(&out),
+        ]);
+        json(&out)
+    };
+    let r = report("a.json");
+    let rows = r["optimisers"].as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    let best = r["best_known_fitness"].as_f64().unwrap();
+    for row in rows {
+        for run in row["runs"].as_array().unwrap() {
+            // No optimiser beats the best known, none spends more than the budget.
+            assert!(run["fitness"].as_f64().unwrap() >= best);
+            assert!(run["evaluations"].as_u64().unwrap() <= 1500, "{row}");
+        }
+    }
+    // The pipelines reach the best fit.
+    for row in &rows[1..3] {
+        assert_eq!(row["success_rate"], 1.0, "{row}");
+    }
+    // Same seeds, same runs (times aside).
+    let again = report("b.json");
+    let strip = |v: &serde_json::Value| {
+        let mut v = v.clone();
+        for row in v["optimisers"].as_array_mut().unwrap() {
+            row.as_object_mut().unwrap().remove("median_seconds");
+            for run in row["runs"].as_array_mut().unwrap() {
+                run.as_object_mut().unwrap().remove("seconds");
+            }
+        }
+        v
+    };
+    assert_eq!(strip(&r), strip(&again));
+}
