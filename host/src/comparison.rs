@@ -73,12 +73,16 @@ pub struct Run {
     pub trace: Vec<(u32, f64)>,
 }
 
+/// What a counted objective has seen: evaluations, the best fitness, and the best by
+/// evaluations.
+type Log = (u32, f64, Vec<(u32, f64)>);
+
 /// The objective in the unit cube, counting evaluations and keeping the best.
 struct Counted<'o, 'r, 'a> {
     objective: &'o Objective<'r, 'a>,
     space: &'o Space,
     budget: u32,
-    log: RefCell<(u32, f64, Vec<(u32, f64)>)>,
+    log: RefCell<Log>,
 }
 
 impl Counted<'_, '_, '_> {
