@@ -185,9 +185,7 @@ pub fn trapezoid_rate(omega: &[f32], k: usize) -> f32 {
 /// (the taps act on differences from the window's centre, so constants cancel exactly), f64
 /// sums, a fixed order of operations: the same bits on the host and the board.
 pub fn noise_sigma(x: &[f32]) -> f32 {
-    let short = SgResidual::<5>::new();
-    let long = SgResidual::<17>::new();
-    let var = match (short.trimmed_var(x), long.trimmed_var(x)) {
+    let var = match (SG_5.trimmed_var(x), SG_17.trimmed_var(x)) {
         (Some(s), Some(l)) => s.min(l),
         (Some(s), None) => s,
         _ => return 0.0,
@@ -195,88 +193,105 @@ pub fn noise_sigma(x: &[f32]) -> f32 {
     libm::sqrt(var) as f32
 }
 
-/// The residual of a local quadratic fit over `W` (odd) samples at the window's centre.
-struct SgResidual<const W: usize> {
-    /// Taps `a_{m+j} = a_{m-j} = -h_j` for `j = 1..=m` (f32, as applied; index 0 is the
-    /// centre's, which multiplies a zero difference).
-    taps: [f32; W],
-    /// White-noise gain `sum a_j^2` of the taps as applied (the centre's `1 - h_0` is
-    /// minus the sum of the others, so that constants cancel).
+/// The local-quadratic residual over 5 samples (the fourth difference over 70 / 6).
+const SG_5: SgResidual = SgResidual::of(&SG_5_SIDES);
+const SG_5_SIDES: [f32; 2] = sg_sides();
+/// The local-quadratic residual over 17 samples.
+const SG_17: SgResidual = SgResidual::of(&SG_17_SIDES);
+const SG_17_SIDES: [f32; 8] = sg_sides();
+
+/// Taps `a_{+-j} = -h_j`, `j = 1..=M`, of the residual of a least-squares quadratic fit over
+/// `2M + 1` samples at its centre, whose row of the fit is `h_j = (S4 - S2 j^2) / (n S4 -
+/// S2^2)` (`S2`, `S4` the sums of `j^2`, `j^4` over `j = -M..=M`, `n = 2M + 1`).
+const fn sg_sides<const M: usize>() -> [f32; M] {
+    let m = M as f64;
+    let s2 = m * (m + 1.0) * (2.0 * m + 1.0) / 3.0;
+    let s4 = m * (m + 1.0) * (2.0 * m + 1.0) * (3.0 * m * m + 3.0 * m - 1.0) / 15.0;
+    let den = (2.0 * m + 1.0) * s4 - s2 * s2;
+    let mut sides = [0.0f32; M];
+    let mut j = 0;
+    while j < M {
+        let k = (j + 1) as f64;
+        sides[j] = (-(s4 - s2 * k * k) / den) as f32;
+        j += 1;
+    }
+    sides
+}
+
+/// The residual of a local quadratic fit at the centre of a window of `2 sides.len() + 1`
+/// samples: `sum_j a_j (x_j - x_centre)`, the centre's tap multiplying zero (so constants
+/// cancel exactly, whatever the rounding of the taps).
+struct SgResidual<'a> {
+    /// Taps `a_{+-j}`, `j = 1..=m` (f32, as applied).
+    sides: &'a [f32],
+    /// White-noise gain `sum a_j^2` of the taps as applied, the centre's being minus the sum
+    /// of the others.
     gain: f64,
 }
 
 /// Residuals summed in f32 over blocks of this many, then added into f64.
 const NOISE_BLOCK: usize = 64;
 
-impl<const W: usize> SgResidual<W> {
-    const M: usize = W / 2;
-
-    fn new() -> Self {
-        let m = Self::M as f64;
-        let n = W as f64;
-        // Sums of j^2 and j^4 over j = -m..m; the centre row of the quadratic fit is
-        // h_j = (S4 - S2 j^2) / (n S4 - S2^2).
-        let s2 = m * (m + 1.0) * (2.0 * m + 1.0) / 3.0;
-        let s4 = m * (m + 1.0) * (2.0 * m + 1.0) * (3.0 * m * m + 3.0 * m - 1.0) / 15.0;
-        let den = n * s4 - s2 * s2;
-        let mut taps = [0.0f32; W];
-        let (mut sides, mut sides_sq) = (0.0f64, 0.0f64);
-        for (j, t) in taps.iter_mut().enumerate().take(Self::M + 1).skip(1) {
-            let j2 = (j * j) as f64;
-            *t = (-(s4 - s2 * j2) / den) as f32;
-            sides += 2.0 * *t as f64;
-            sides_sq += 2.0 * (*t as f64) * (*t as f64);
+impl<'a> SgResidual<'a> {
+    const fn of(sides: &'a [f32]) -> Self {
+        let (mut sum, mut sq) = (0.0f64, 0.0f64);
+        let mut j = 0;
+        while j < sides.len() {
+            sum += 2.0 * sides[j] as f64;
+            sq += 2.0 * (sides[j] as f64) * (sides[j] as f64);
+            j += 1;
         }
         SgResidual {
-            taps,
-            gain: sides * sides + sides_sq,
+            sides,
+            gain: sum * sum + sq,
         }
     }
 
-    /// Residual of the window `w`: `sum_j a_j (w_j - w_m)`, the symmetric taps applied to
-    /// the sums of the differences to the centre on either side.
+    /// Residual of the window `w`: the symmetric taps applied to the sums of the differences
+    /// to the centre on either side.
     #[inline(always)]
     fn at(&self, w: &[f32]) -> f32 {
-        let c = w[Self::M];
+        let m = self.sides.len();
+        let c = w[m];
         let mut r = 0.0f32;
-        for j in 1..=Self::M {
-            r += self.taps[j] * ((w[Self::M + j] - c) + (w[Self::M - j] - c));
+        for (j, t) in self.sides.iter().enumerate() {
+            r += t * ((w[m + 1 + j] - c) + (w[m - 1 - j] - c));
         }
         r
     }
 
-    /// Sum of `term(r)` over the residuals `r` of `x` where it is given, and their count.
-    fn sum(&self, x: &[f32], term: impl Fn(f32) -> Option<f32>) -> (f64, usize) {
-        let (mut block, mut total, mut count) = (0.0f32, 0.0f64, 0usize);
-        for (i, w) in x.windows(W).enumerate() {
-            if let Some(v) = term(self.at(w)) {
-                block += v;
+    /// Over the residuals `r` of `x`: the sum of `|r|`, and the sum of `r^2` and the count of
+    /// those with `|r| <= limit`.
+    fn sums(&self, x: &[f32], limit: f32) -> (f64, f64, usize) {
+        let (mut abs, mut sq) = ((0.0f32, 0.0f64), (0.0f32, 0.0f64));
+        let mut count = 0usize;
+        for (i, w) in x.windows(2 * self.sides.len() + 1).enumerate() {
+            let r = self.at(w);
+            abs.0 += r.abs();
+            if r.abs() <= limit {
+                sq.0 += r * r;
                 count += 1;
             }
             if i % NOISE_BLOCK == NOISE_BLOCK - 1 {
-                total += block as f64;
-                block = 0.0;
+                abs = (0.0, abs.1 + abs.0 as f64);
+                sq = (0.0, sq.1 + sq.0 as f64);
             }
         }
-        (total + block as f64, count)
+        (abs.1 + abs.0 as f64, sq.1 + sq.0 as f64, count)
     }
 
     /// Trimmed mean square of the residuals over the gain (`None` when `x` is shorter than
-    /// the window).
+    /// the window). Not inlined: one copy serves both windows (flash on the board).
+    #[inline(never)]
     fn trimmed_var(&self, x: &[f32]) -> Option<f64> {
-        if x.len() < W {
+        if x.len() < 2 * self.sides.len() + 1 {
             return None;
         }
-        let (abs, n) = self.sum(x, |r| Some(r.abs()));
+        let (abs, _, n) = self.sums(x, f32::INFINITY);
         let scale = libm::sqrt(core::f64::consts::FRAC_PI_2) * abs / n as f64;
-        let trimmed_ms = |limit: f64| {
-            let limit = limit as f32;
-            let (sq, count) = self.sum(x, |r| (r.abs() <= limit).then_some(r * r));
-            if count == 0 {
-                0.0
-            } else {
-                sq / count as f64
-            }
+        let trimmed_ms = |limit: f64| match self.sums(x, limit as f32) {
+            (_, _, 0) => 0.0,
+            (_, sq, count) => sq / count as f64,
         };
         let rms = libm::sqrt(trimmed_ms(4.0 * scale));
         Some(trimmed_ms(3.5 * rms) / 0.99389 / self.gain)
