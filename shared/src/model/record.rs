@@ -251,11 +251,11 @@ impl<'a> SgResidual<'a> {
     /// to the centre on either side.
     #[inline(always)]
     fn at(&self, w: &[f32]) -> f32 {
-        let m = self.sides.len();
-        let c = w[m];
+        let (before, rest) = w.split_at(self.sides.len());
+        let (c, after) = (rest[0], &rest[1..]);
         let mut r = 0.0f32;
-        for (j, t) in self.sides.iter().enumerate() {
-            r += t * ((w[m + 1 + j] - c) + (w[m - 1 - j] - c));
+        for ((t, a), b) in self.sides.iter().zip(after).zip(before.iter().rev()) {
+            r += t * ((a - c) + (b - c));
         }
         r
     }
