@@ -181,29 +181,45 @@ pub fn trapezoid_rate(omega: &[f32], k: usize) -> f32 {
 /// signal; a ripple above f = 0.15 reads as noise (nothing in the record alone tells them
 /// apart).
 ///
-/// Fixed memory, no sorting, three passes over the record per filter; f32 filter outputs
-/// (the taps act on differences from the window's centre, so constants cancel exactly), f64
-/// sums, a fixed order of operations: the same bits on the host and the board.
+/// Fixed memory, no sorting, three passes over the record (both windows in each); f32 filter
+/// outputs (symmetric taps on the sums of the readings either side: 5 and 25 operations per
+/// sample on the board's FPU), f32 sums over blocks of 64 added into f64, a fixed order of
+/// operations: the same bits on the host and the board.
 pub fn noise_sigma(x: &[f32]) -> f32 {
-    let var = match (SG_5.trimmed_var(x), SG_17.trimmed_var(x)) {
-        (Some(s), Some(l)) => s.min(l),
-        (Some(s), None) => s,
-        _ => return 0.0,
+    // Both windows in one loop (the short one at the long one's centre); a record shorter
+    // than the long window gets the short one alone.
+    let both = x.len() > 2 * SG_17.sides.len();
+    if x.len() <= 2 * SG_5.sides.len() {
+        return 0.0;
+    }
+    let pass = |limits: [f32; 2]| residual_sums(x, both, limits);
+    let first = pass([f32::INFINITY; 2]);
+    let scale = |k: usize| libm::sqrt(core::f64::consts::FRAC_PI_2) * first[k].abs_mean();
+    let second = pass([(4.0 * scale(0)) as f32, (4.0 * scale(1)) as f32]);
+    let rms = |k: usize| libm::sqrt(second[k].mean_square());
+    let third = pass([(3.5 * rms(0)) as f32, (3.5 * rms(1)) as f32]);
+    let var = |k: usize, f: &SgResidual| third[k].mean_square() / 0.99389 / f.gain;
+    let short = var(0, &SG_5);
+    let var = if both {
+        short.min(var(1, &SG_17))
+    } else {
+        short
     };
     libm::sqrt(var) as f32
 }
 
-/// The local-quadratic residual over 5 samples (the fourth difference over 70 / 6).
-const SG_5: SgResidual = SgResidual::of(&SG_5_SIDES);
-const SG_5_SIDES: [f32; 2] = sg_sides();
+/// The local-quadratic residual over 5 samples (the fourth difference times 3 / 35).
+const SG_5: SgResidual = SgResidual::of(SG_5_TAPS.0, &SG_5_TAPS.1);
+const SG_5_TAPS: (f32, [f32; 2]) = sg_taps();
 /// The local-quadratic residual over 17 samples.
-const SG_17: SgResidual = SgResidual::of(&SG_17_SIDES);
-const SG_17_SIDES: [f32; 8] = sg_sides();
+const SG_17: SgResidual = SgResidual::of(SG_17_TAPS.0, &SG_17_TAPS.1);
+const SG_17_TAPS: (f32, [f32; 8]) = sg_taps();
 
-/// Taps `a_{+-j} = -h_j`, `j = 1..=M`, of the residual of a least-squares quadratic fit over
-/// `2M + 1` samples at its centre, whose row of the fit is `h_j = (S4 - S2 j^2) / (n S4 -
-/// S2^2)` (`S2`, `S4` the sums of `j^2`, `j^4` over `j = -M..=M`, `n = 2M + 1`).
-const fn sg_sides<const M: usize>() -> [f32; M] {
+/// Taps of the residual of a least-squares quadratic fit over `2M + 1` samples at its
+/// centre, `a_0 = 1 - h_0` and `a_{+-j} = -h_j` for `j = 1..=M`, where the fit's centre row is
+/// `h_j = (S4 - S2 j^2) / (n S4 - S2^2)` (`S2`, `S4` the sums of `j^2`, `j^4` over
+/// `j = -M..=M`, `n = 2M + 1`).
+const fn sg_taps<const M: usize>() -> (f32, [f32; M]) {
     let m = M as f64;
     let s2 = m * (m + 1.0) * (2.0 * m + 1.0) / 3.0;
     let s4 = m * (m + 1.0) * (2.0 * m + 1.0) * (3.0 * m * m + 3.0 * m - 1.0) / 15.0;
@@ -215,87 +231,111 @@ const fn sg_sides<const M: usize>() -> [f32; M] {
         sides[j] = (-(s4 - s2 * k * k) / den) as f32;
         j += 1;
     }
-    sides
+    ((1.0 - s4 / den) as f32, sides)
 }
 
 /// The residual of a local quadratic fit at the centre of a window of `2 sides.len() + 1`
-/// samples: `sum_j a_j (x_j - x_centre)`, the centre's tap multiplying zero (so constants
-/// cancel exactly, whatever the rounding of the taps).
-struct SgResidual<'a> {
+/// samples.
+struct SgResidual {
+    /// The centre's tap.
+    centre: f32,
     /// Taps `a_{+-j}`, `j = 1..=m` (f32, as applied).
-    sides: &'a [f32],
-    /// White-noise gain `sum a_j^2` of the taps as applied, the centre's being minus the sum
-    /// of the others.
+    sides: &'static [f32],
+    /// White-noise gain `sum a_j^2` of the taps as applied.
     gain: f64,
+}
+
+impl SgResidual {
+    const fn of(centre: f32, sides: &'static [f32]) -> Self {
+        let mut gain = (centre as f64) * (centre as f64);
+        let mut j = 0;
+        while j < sides.len() {
+            gain += 2.0 * (sides[j] as f64) * (sides[j] as f64);
+            j += 1;
+        }
+        SgResidual {
+            centre,
+            sides,
+            gain,
+        }
+    }
+
+    /// Residual of the window `w` (its length `2 sides.len() + 1`): the centre's tap, then the
+    /// symmetric taps applied to the sums of the readings either side.
+    #[inline(always)]
+    fn at(&self, w: &[f32]) -> f32 {
+        let (before, rest) = w.split_at(self.sides.len());
+        let (c, after) = (rest[0], &rest[1..]);
+        let mut r = self.centre * c;
+        for ((t, a), b) in self.sides.iter().zip(after).zip(before.iter().rev()) {
+            r += t * (a + b);
+        }
+        r
+    }
 }
 
 /// Residuals summed in f32 over blocks of this many, then added into f64.
 const NOISE_BLOCK: usize = 64;
 
-impl<'a> SgResidual<'a> {
-    const fn of(sides: &'a [f32]) -> Self {
-        let (mut sum, mut sq) = (0.0f64, 0.0f64);
-        let mut j = 0;
-        while j < sides.len() {
-            sum += 2.0 * sides[j] as f64;
-            sq += 2.0 * (sides[j] as f64) * (sides[j] as f64);
-            j += 1;
-        }
-        SgResidual {
-            sides,
-            gain: sum * sum + sq,
-        }
-    }
+/// Sums over the residuals `r` of one filter: of `|r|`, and of `r^2` over those within a
+/// limit, with their count.
+#[derive(Clone, Copy, Default)]
+struct ResidualSums {
+    block_abs: f32,
+    abs: f64,
+    block_sq: f32,
+    sq: f64,
+    n: usize,
+    within: usize,
+}
 
-    /// Residual of the window `w`: the symmetric taps applied to the sums of the differences
-    /// to the centre on either side.
+impl ResidualSums {
     #[inline(always)]
-    fn at(&self, w: &[f32]) -> f32 {
-        let (before, rest) = w.split_at(self.sides.len());
-        let (c, after) = (rest[0], &rest[1..]);
-        let mut r = 0.0f32;
-        for ((t, a), b) in self.sides.iter().zip(after).zip(before.iter().rev()) {
-            r += t * ((a - c) + (b - c));
+    fn add(&mut self, r: f32, limit: f32) {
+        self.block_abs += r.abs();
+        self.n += 1;
+        if r.abs() <= limit {
+            self.block_sq += r * r;
+            self.within += 1;
         }
-        r
     }
 
-    /// Over the residuals `r` of `x`: the sum of `|r|`, and the sum of `r^2` and the count of
-    /// those with `|r| <= limit`.
-    fn sums(&self, x: &[f32], limit: f32) -> (f64, f64, usize) {
-        let (mut abs, mut sq) = ((0.0f32, 0.0f64), (0.0f32, 0.0f64));
-        let mut count = 0usize;
-        for (i, w) in x.windows(2 * self.sides.len() + 1).enumerate() {
-            let r = self.at(w);
-            abs.0 += r.abs();
-            if r.abs() <= limit {
-                sq.0 += r * r;
-                count += 1;
-            }
-            if i % NOISE_BLOCK == NOISE_BLOCK - 1 {
-                abs = (0.0, abs.1 + abs.0 as f64);
-                sq = (0.0, sq.1 + sq.0 as f64);
-            }
-        }
-        (abs.1 + abs.0 as f64, sq.1 + sq.0 as f64, count)
+    fn flush(&mut self) {
+        self.abs += self.block_abs as f64;
+        self.sq += self.block_sq as f64;
+        self.block_abs = 0.0;
+        self.block_sq = 0.0;
     }
 
-    /// Trimmed mean square of the residuals over the gain (`None` when `x` is shorter than
-    /// the window). Not inlined: one copy serves both windows (flash on the board).
-    #[inline(never)]
-    fn trimmed_var(&self, x: &[f32]) -> Option<f64> {
-        if x.len() < 2 * self.sides.len() + 1 {
-            return None;
-        }
-        let (abs, _, n) = self.sums(x, f32::INFINITY);
-        let scale = libm::sqrt(core::f64::consts::FRAC_PI_2) * abs / n as f64;
-        let trimmed_ms = |limit: f64| match self.sums(x, limit as f32) {
-            (_, _, 0) => 0.0,
-            (_, sq, count) => sq / count as f64,
-        };
-        let rms = libm::sqrt(trimmed_ms(4.0 * scale));
-        Some(trimmed_ms(3.5 * rms) / 0.99389 / self.gain)
+    fn abs_mean(&self) -> f64 {
+        self.abs / self.n.max(1) as f64
     }
+
+    fn mean_square(&self) -> f64 {
+        self.sq / self.within.max(1) as f64
+    }
+}
+
+/// One pass over `x`: the sums of the short window's residuals and (with `both`) the long
+/// one's, each trimmed at its limit. Not inlined: one copy serves the three passes.
+#[inline(never)]
+fn residual_sums(x: &[f32], both: bool, limits: [f32; 2]) -> [ResidualSums; 2] {
+    let short = SG_5.sides.len();
+    let half = if both { SG_17.sides.len() } else { short };
+    let mut sums = [ResidualSums::default(); 2];
+    for (i, w) in x.windows(2 * half + 1).enumerate() {
+        sums[0].add(SG_5.at(&w[half - short..=half + short]), limits[0]);
+        if both {
+            sums[1].add(SG_17.at(w), limits[1]);
+        }
+        if i % NOISE_BLOCK == NOISE_BLOCK - 1 {
+            sums[0].flush();
+            sums[1].flush();
+        }
+    }
+    sums[0].flush();
+    sums[1].flush();
+    sums
 }
 
 /// Simulate record `r`'s inputs (voltage, load, coast-down) from `init`:
@@ -401,6 +441,15 @@ mod tests {
             });
             check("white, 10 Hz sine", noise_sigma(&x), truth, 0.1);
         }
+    }
+
+    #[test]
+    fn noise_sigma_on_records_shorter_than_the_long_window_uses_the_short_one() {
+        let (x, _) = white(16, 0.5, 2, rise);
+        let short = noise_sigma(&x);
+        assert!(short > 0.1 && short < 2.0, "{short}");
+        assert_eq!(noise_sigma(&x[..5]), noise_sigma(&x[..5]));
+        assert_eq!(noise_sigma(&x[..4]), 0.0);
     }
 
     #[test]
