@@ -164,9 +164,10 @@ pub fn trapezoid_rate(omega: &[f32], k: usize) -> f32 {
 /// A1/A0) = 1.34` times high. A long window (17 samples) passes everything from f = 0.08
 /// to Nyquist (at 0.8 to 1.7 times its mean gain), so it weighs the noise's spectrum more
 /// evenly and reads an encoder only 1.077 times high, but it lets through ripple and fast
-/// transients above f = 0.08. As both are upper bounds, the smaller is the estimate. (The estimator this replaces, second
-/// differences read as white noise, read an encoder `sqrt(20/12 / 6) / (1/sqrt 6) = 1.29`
-/// times high, and more through its normal-tail correction of a bounded error.)
+/// transients above f = 0.08. As both are upper bounds, the smaller is the estimate. (The
+/// estimator this replaces, second differences read as white noise, read an encoder
+/// `sqrt(20/12 / 6) / (1/sqrt 6) = 1.29` times high, and more through its normal-tail
+/// correction of a bounded error: 1.47 on the reference plant.)
 ///
 /// **Steps and transients** give a few large residuals. Each filter's mean square is trimmed:
 /// a scale from the mean absolute residual (`sqrt(pi/2)` times it for a normal variable,
