@@ -626,7 +626,6 @@ fn encoder_noise() -> (f64, f64, f64) {
 }
 
 #[test]
-#[ignore = "issue 15: robust noise floor not built yet"]
 fn noise_estimate_on_encoder_quantisation_is_within_20_percent() {
     let (est, truth, q12) = encoder_noise();
     eprintln!("encoder: sigma_omega {est:.4} vs RMS(reading - mean speed) {truth:.4}, q/sqrt(12) {q12:.4}");

@@ -272,7 +272,7 @@ pub(crate) struct Totals {
 
 /// Pooled noise of several signals, floored at the quantisation noise `q / sqrt(12)` of the
 /// smallest step `q` between readings (an ADC- or encoder-quantised signal that is mostly
-/// flat has zero second differences) and at 1e-4 of the RMS (noise-free simulations would
+/// flat has zero local-quadratic residuals) and at 1e-4 of the RMS (noise-free simulations would
 /// otherwise give a zero weight or a division by zero).
 pub fn pooled_sigma<'s>(signals: impl Iterator<Item = &'s [f32]>) -> f32 {
     let mut var = 0.0f64;
