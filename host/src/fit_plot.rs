@@ -1,4 +1,5 @@
-//! The plot of one fit: measured vs fitted speed, the residual, and the convergence trace.
+//! The plot of one fit: measured vs fitted speed (and current, when fitted), the residual,
+//! and the convergence trace.
 
 use crate::csvio::OwnedRecord;
 use crate::fit::Fit;
@@ -14,6 +15,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
     let objective = Objective::new(&borrowed).map_err(|e| anyhow!("{e}"))?;
     // Records side by side on one time axis.
     let (mut t, mut measured, mut fitted, mut residual) = (vec![], vec![], vec![], vec![]);
+    let (mut current, mut current_fit) = (vec![], vec![]);
     let mut offset = 0.0;
     for (k, r) in records.iter().enumerate() {
         let mut w = vec![0.0; r.len()];
@@ -27,6 +29,10 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
             fitted.push(sim);
             residual.push(m - sim);
         }
+        if let (true, Some(c)) = (f.with_current, &r.current) {
+            current.extend_from_slice(c);
+            current_fit.extend_from_slice(&i);
+        }
         offset += r.len() as f64 * r.dt as f64;
     }
     let evals: Vec<f64> = f
@@ -37,7 +43,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
         .collect();
     let best: Vec<f32> = f.result.trace.iter().map(|p| p.best).collect();
     let green = RGBColor(0, 140, 0);
-    let panels = [
+    let mut panels = vec![
         Panel {
             title: format!(
                 "speed: measured vs fitted (rmse {:.4} rad/s)",
@@ -78,7 +84,11 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
         Panel {
             title: "convergence (seed Fig. 10)".into(),
             x_label: "model evaluations",
-            y_label: "best fitness [rad/s]",
+            y_label: if f.with_current {
+                "best fitness [noise-weighted, in speed units]"
+            } else {
+                "best fitness: speed rmse [rad/s]"
+            },
             series: vec![Series {
                 label: "best",
                 x: &evals,
@@ -89,5 +99,34 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
             categories: None,
         },
     ];
+    if f.with_current {
+        panels.insert(
+            1,
+            Panel {
+                title: format!(
+                    "current: measured vs fitted (rmse {:.4} A)",
+                    f.result.cost.rmse_current.unwrap_or(f32::NAN)
+                ),
+                x_label: "t [s] (records side by side)",
+                y_label: "i [A]",
+                series: vec![
+                    Series {
+                        label: "measured",
+                        x: &t,
+                        y: &current,
+                        color: BLUE,
+                    },
+                    Series {
+                        label: "fitted",
+                        x: &t,
+                        y: &current_fit,
+                        color: RED,
+                    },
+                ],
+                log_y: false,
+                categories: None,
+            },
+        );
+    }
     draw(path, &panels)
 }

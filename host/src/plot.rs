@@ -45,7 +45,7 @@ pub struct Panel<'a> {
     pub y_label: &'a str,
     /// Lines.
     pub series: Vec<Series<'a>>,
-    /// Logarithmic y axis.
+    /// Logarithmic y axis (drawn linear when the values span less than a decade).
     pub log_y: bool,
     /// Draw the series as grouped bars over these category labels (series `x` ignored)
     /// instead of lines.
@@ -101,7 +101,11 @@ fn draw_to(tmp: &Path, path: &Path, panels: &[Panel]) -> Result<()> {
         }
         let points: Vec<Vec<(f64, f64)>> = panel.series.iter().map(decimated).collect();
         let (x0, x1) = range(points.iter().flatten().map(|p| p.0), false);
-        let (y0, y1) = range(points.iter().flatten().map(|p| p.1), panel.log_y);
+        // A logarithmic axis labels only powers of ten: a range within one decade would show
+        // no label at all, so it is drawn linear.
+        let (lo, hi) = range(points.iter().flatten().map(|p| p.1), true);
+        let log_y = panel.log_y && hi / lo >= 10.0;
+        let (y0, y1) = range(points.iter().flatten().map(|p| p.1), log_y);
         let mut builder = ChartBuilder::on(area);
         builder
             .caption(&panel.title, ("sans-serif", 20))
@@ -135,7 +139,7 @@ fn draw_to(tmp: &Path, path: &Path, panels: &[Panel]) -> Result<()> {
                     .map_err(|e| err(&e))?;
             }};
         }
-        if panel.log_y {
+        if log_y {
             finish!(builder
                 .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
                 .map_err(|e| err(&e))?);
