@@ -352,11 +352,16 @@ fn compare_runs_every_optimiser_on_the_same_budget_reproducibly() {
     let r = report("a.json");
     let rows = r["optimisers"].as_array().unwrap();
     assert_eq!(rows.len(), 5);
+    // The best any optimiser found is the optimum `identify` reaches on its own (a
+    // different command path): within 1 % either way.
     let best = r["best_known_fitness"].as_f64().unwrap();
+    let id = dir.path().join("id.json");
+    run_ok(&["identify", s(&rec), "--json", s(&id), "-q"]);
+    let optimum = json(&id)["fitness"].as_f64().unwrap();
+    assert!((best / optimum - 1.0).abs() < 0.01, "{best} vs {optimum}");
     for row in rows {
         for run in row["runs"].as_array().unwrap() {
-            // No optimiser beats the best known, none spends more than the budget.
-            assert!(run["fitness"].as_f64().unwrap() >= best);
+            // None spends more than the budget.
             assert!(run["evaluations"].as_u64().unwrap() <= 1500, "{row}");
         }
     }

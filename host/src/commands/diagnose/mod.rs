@@ -111,7 +111,8 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     }
     if let Some(path) = &a.plot {
         let base = &found.baseline.fit.result.params;
-        let chosen = found.chosen().map(|(_, s)| &s.fit.result.params);
+        // The verdict's model: every named effect (what `holdout_rmse_after` judges).
+        let chosen = found.chosen().map(|_| &found.last().fit.result.params);
         plot::plot(path, &data, base, chosen, &report)?;
     }
     Ok(())

@@ -46,11 +46,16 @@ pub fn plot(
     let labels: Vec<String> = regimes.iter().map(|r| r.short.to_string()).collect();
     let share: Vec<f32> = regimes.iter().map(|r| r.share_of_misfit as f32).collect();
     let samples: Vec<f32> = regimes.iter().map(|r| r.share_of_samples as f32).collect();
-    let label = report.verdict.effect.unwrap_or("no effect");
+    let named: Vec<&str> = report.verdict.effects.iter().map(|e| e.name).collect();
+    let label = if named.is_empty() {
+        "no effect".to_string()
+    } else {
+        named.join(" + ")
+    };
     let green = RGBColor(0, 140, 0);
     let panels = [
         Panel {
-            title: "held-out speed: measured, baseline, with the verdict's effect".into(),
+            title: "held-out speed: measured, baseline, with the verdict's effects".into(),
             x_label: "t [s] (held-out records side by side)",
             y_label: "omega [rad/s]",
             series: vec![
@@ -67,7 +72,7 @@ pub fn plot(
                     color: RED,
                 },
                 Series {
-                    label,
+                    label: &label,
                     x: &t,
                     y: &we,
                     color: green,
@@ -88,7 +93,7 @@ pub fn plot(
                     color: RED,
                 },
                 Series {
-                    label,
+                    label: &label,
                     x: &t,
                     y: &re,
                     color: green,

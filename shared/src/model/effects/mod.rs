@@ -230,11 +230,6 @@ impl ParamId {
     pub const fn short_key(self) -> &'static str {
         KEYS[self as usize]
     }
-
-    /// The effect this parameter belongs to (`None` for the five motor parameters).
-    pub fn effect(self) -> Option<Effect> {
-        Effect::ALL.into_iter().find(|e| e.params().contains(&self))
-    }
 }
 
 #[cfg(test)]
@@ -246,7 +241,6 @@ mod tests {
         for id in ParamId::ALL {
             assert_eq!(ParamId::from_name(id.name()), Some(id));
             assert_eq!(id.spec().id, id);
-            assert_eq!(id.is_motor(), id.effect().is_none(), "{}", id.name());
         }
         for e in Effect::ALL {
             assert_eq!(Effect::from_name(e.name()), Some(e));
