@@ -67,6 +67,7 @@ impl From<PipelineArg> for Pipeline {
 }
 
 /// Everything one identification produced.
+#[derive(Clone)]
 pub struct Fit {
     /// Problem solved.
     pub spec: ProblemSpec,
@@ -144,6 +145,24 @@ pub fn fit_from(
         spec,
         &IdentifyConfig::default_pipeline(opts.seed),
         initial,
+    )
+}
+
+/// Refit `spec` by least squares from `start` alone, without a global search: for a start
+/// that lies in the optimum's basin already (an effect's fit continued with every parameter
+/// free, a model refitted with one effect taken out).
+pub fn refit_from(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    start: &ModelParams,
+) -> Result<Fit> {
+    run_fit(
+        records,
+        opts,
+        spec,
+        &IdentifyConfig::local(opts.seed),
+        Some(start),
     )
 }
 

@@ -39,9 +39,9 @@ pub enum ParamId {
     Ts,
     /// Stribeck speed over which the break-away excess fades [rad/s] (`static_friction`).
     Ws,
-    /// Half the difference of the Coulomb torque forward and backward [N m]
-    /// (`asymmetric_friction`).
-    Ta,
+    /// Direction asymmetry of the Coulomb torque, a fraction of it [-]: `tc (1 + ka)`
+    /// forward, `tc (1 - ka)` backward (`asymmetric_friction`).
+    Ka,
     /// Dead-time voltage error of the bridge [V] (`bridge_deadtime`).
     Vdt,
     /// Current band over which the dead-time error changes sign [A] (`bridge_deadtime`).
@@ -71,7 +71,7 @@ impl ParamId {
         ParamId::RipplePhase,
         ParamId::Ts,
         ParamId::Ws,
-        ParamId::Ta,
+        ParamId::Ka,
         ParamId::Vdt,
         ParamId::Ib,
         ParamId::Io,

@@ -1,6 +1,7 @@
 //! Helpers for the end-to-end tests in `tests/tests/`: they drive the `motor-id` binary
 //! exactly as a user (or another tool) would, through the CLI/CSV/JSON contract of `docs/CONTRACTS.md`.
 
+pub mod blind;
 pub mod reference_plant;
 
 use serde_json::Value;
@@ -10,10 +11,14 @@ use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 /// Path of the `motor-id` binary, built once per test run in the same target directory and
-/// profile as the tests.
+/// profile as the tests; `MOTOR_ID_BIN` names another one (a benchmark that must not see a
+/// rebuild part-way).
 pub fn motor_id() -> &'static Path {
     static BIN: OnceLock<PathBuf> = OnceLock::new();
     BIN.get_or_init(|| {
+        if let Some(bin) = std::env::var_os("MOTOR_ID_BIN") {
+            return PathBuf::from(bin);
+        }
         // target/<profile>/deps/<test-exe> -> target/<profile>
         let exe = std::env::current_exe().expect("test executable path");
         let profile_dir = exe

@@ -129,3 +129,17 @@ fn a_current_sensor_offset_is_named_on_the_current_channel() {
     assert_eq!(v["current"]["unexplained"], false, "{v}");
     assert_eq!(v["unexplained"], false, "{v}");
 }
+
+#[test]
+fn a_pair_of_effects_is_named_exactly_and_nothing_rides_on_it() {
+    // Asymmetric friction and a current offset (blind-check case 1 at 2 kHz, speed from an
+    // encoder): the forward search once added static friction on top of a step whose fit
+    // had not converged (ts 5 % of tc; the asymmetry 35 % off); backward elimination refits
+    // the final model without each effect and drops the one that does not earn its place.
+    let dir = tempfile::tempdir().unwrap();
+    let o = motor_id_tests::blind::check(dir.path(), &["asymmetric", "offset"], 2000.0, 1);
+    let expected: std::collections::BTreeSet<String> = ["asymmetric_friction", "current_offset"]
+        .map(String::from)
+        .into();
+    assert_eq!(o.named, expected);
+}

@@ -72,10 +72,22 @@ pub struct IdentifyConfig {
     pub restarts: u32,
     /// Seed the search with the equation-error estimate of [`crate::fit::initial`].
     pub equation_error_start: bool,
-    /// Refine the equation-error start first and skip the FFO when that already reaches
-    /// the measured noise floor (saves most evaluations on a board; the noise floor is an
-    /// estimate, so the host pipeline searches anyway).
-    pub skip_search_at_floor: bool,
+    /// When the FFO runs.
+    pub search: SearchWhen,
+}
+
+/// When [`identify_from`] runs its global search (the FFO).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SearchWhen {
+    /// Always, seeded with the start (the host's default pipeline: the noise floor is an
+    /// estimate, so it searches anyway).
+    Always,
+    /// Only when refining the start first does not reach the measured noise floor (saves
+    /// most evaluations on a board).
+    AboveFloor,
+    /// Never: least squares from the start only (a refit from a start known to lie in the
+    /// optimum's basin, e.g. a model refitted after one effect was taken out of it).
+    Never,
 }
 
 impl IdentifyConfig {
@@ -88,7 +100,7 @@ impl IdentifyConfig {
             seed,
             restarts: 3,
             equation_error_start: true,
-            skip_search_at_floor: false,
+            search: SearchWhen::Always,
         }
     }
 
@@ -96,7 +108,15 @@ impl IdentifyConfig {
     /// only runs when refining the equation-error start does not reach the noise floor.
     pub fn board(seed: u64) -> Self {
         IdentifyConfig {
-            skip_search_at_floor: true,
+            search: SearchWhen::AboveFloor,
+            ..Self::default_pipeline(seed)
+        }
+    }
+
+    /// Least squares from a given start only, no global search ([`SearchWhen::Never`]).
+    pub fn local(seed: u64) -> Self {
+        IdentifyConfig {
+            search: SearchWhen::Never,
             ..Self::default_pipeline(seed)
         }
     }
@@ -111,7 +131,7 @@ impl IdentifyConfig {
             seed,
             restarts: 0,
             equation_error_start: false,
-            skip_search_at_floor: false,
+            search: SearchWhen::Always,
         }
     }
 }
@@ -234,11 +254,18 @@ pub fn identify_from(
         space.unit(&full)
     });
     let floor = NOISE_FLOOR_FACTOR * objective.sigma_omega();
-    if let (true, Some(u0), Some(_)) = (cfg.skip_search_at_floor, start_u, cfg.refine) {
+    let refine_first = cfg.search != SearchWhen::Always;
+    if let (true, Some(u0), Some(_)) = (refine_first, start_u, cfg.refine) {
         run.refine(&u0[..dim]);
     }
     let at_floor = run.best.is_some_and(|(_, c)| c.fitness() <= floor);
-    if !(at_floor && cfg.skip_search_at_floor) && run.completed {
+    let search = match cfg.search {
+        SearchWhen::Always => true,
+        SearchWhen::AboveFloor => !at_floor,
+        // Without a start to refine, the search is the only way to a point.
+        SearchWhen::Never => run.best.is_none(),
+    };
+    if search && run.completed {
         // Seed the search with the better of the start and its refinement.
         let seed_point = run.best.map(|(u, _)| u).or(start_u);
         run.search(seed_point.as_ref().map(|u| &u[..dim]))?;

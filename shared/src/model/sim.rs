@@ -204,7 +204,7 @@ impl Simulator {
         }
         let on = |id: ParamId| p.get(id) != 0.0;
         let delayed = delay_whole != 0 || delay_frac != 0.0;
-        let friction = on(ParamId::Tc) || on(ParamId::Ts) || on(ParamId::Ta);
+        let friction = on(ParamId::Tc) || on(ParamId::Ts) || on(ParamId::Ka);
         // Effects on the dynamics or the reading's shape other than Coulomb friction (a
         // delay only shifts the reading: the fast paths push through the delay line).
         let others = [
@@ -213,7 +213,7 @@ impl Simulator {
             ParamId::Vb,
             ParamId::RippleAmp,
             ParamId::Ts,
-            ParamId::Ta,
+            ParamId::Ka,
             ParamId::Vdt,
             ParamId::Io,
         ];
@@ -277,7 +277,7 @@ impl Simulator {
             tc: self.effect(ParamId::Tc),
             ts: self.effect(ParamId::Ts),
             ws: self.effect(ParamId::Ws),
-            ta: self.effect(ParamId::Ta),
+            ka: self.effect(ParamId::Ka),
         }
     }
 

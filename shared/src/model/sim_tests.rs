@@ -210,10 +210,11 @@ fn static_friction_holds_the_shaft_until_break_away_then_slides_at_the_coulomb_t
 
 #[test]
 fn asymmetric_friction_slows_one_direction_more_than_the_other() {
-    let (tc, ta) = (0.03f32, 0.01f32);
+    let (tc, ka) = (0.03f32, 1.0 / 3.0);
+    let ta = tc * ka;
     let p = ModelParams::SEED_MOTOR
         .with(ParamId::Tc, tc)
-        .with(ParamId::Ta, ta);
+        .with(ParamId::Ka, ka);
     let forward = settled(&p, 20.0, 120.0);
     let backward = settled(&p, -20.0, 120.0);
     for (w, want) in [

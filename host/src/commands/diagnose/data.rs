@@ -57,6 +57,7 @@ pub struct Data {
 }
 
 /// One fitted model and how it does on both sets.
+#[derive(Clone)]
 pub struct Scored {
     /// The fit on the training records.
     pub fit: Fit,

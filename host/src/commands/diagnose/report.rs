@@ -218,7 +218,7 @@ impl DiagnoseReport {
     ) -> DiagnoseReport {
         let baseline = &search.baseline;
         let holdout_noise = search.holdout.noise;
-        let first = search.first;
+        let first = search.first();
         let effects = search
             .scored
             .iter()
@@ -265,8 +265,8 @@ impl DiagnoseReport {
                 base_params_shift: motor_shift(&baseline.fit.result.params, &s.fit.result.params),
             }),
             second: Second {
-                effect: search.more.first().map(|(e, _)| e.name()),
-                fit: search.more.first().map(|(e, s)| SecondFit {
+                effect: search.chain.get(1).map(|(e, _)| e.name()),
+                fit: search.chain.get(1).map(|(e, s)| SecondFit {
                     holdout_rmse_after: Num(s.holdout_rmse),
                     train_rmse_after: Num(s.train_rmse),
                     effect_params: values(&s.fit.result.params, e.params()),

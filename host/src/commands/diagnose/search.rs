@@ -1,13 +1,17 @@
 //! The search over the catalogue: the baseline fitted on the training records, every effect
 //! added to it and refitted, the first that passes the significance rule, then effects added
 //! one at a time on top of the model so far, each only when it passes the rule against that
-//! model, until none does (no fixed limit).
+//! model, until none does (no fixed limit: forward selection). Then backward elimination:
+//! each named effect is taken out of the final model again and the rest refitted; one whose
+//! removal the rule does not call significant is dropped (an effect that only rode on an
+//! earlier step's imperfect fit), until every effect left earns its place against the
+//! final model without it.
 
 use super::data::{Data, Scored};
 use super::regimes::{self, WhereReport};
 use super::spectrum::{order_peak, OrderPeak};
 use super::verdict::{significant, Holdout};
-use crate::fit::{fit_from, Fit, FitOptions};
+use crate::fit::{fit_from, refit_from, Fit, FitOptions};
 use anyhow::{anyhow, Result};
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
@@ -28,17 +32,20 @@ pub struct Search {
     /// Every effect of the catalogue added to the baseline, best held-out (joint) misfit
     /// first.
     pub scored: Vec<(Effect, Scored)>,
-    /// The best effect that passes the significance rule.
-    pub first: Option<Effect>,
-    /// The effects named after the first, in order, each fitted on top of the ones before.
-    pub more: Vec<(Effect, Scored)>,
+    /// The effects named, in the order they were added, each with the fit of the model up to
+    /// it (the last: the final model). An effect that extends another stands for both.
+    pub chain: Vec<(Effect, Scored)>,
 }
 
 impl Search {
-    /// The first effect with its fit.
+    /// The first effect named, with the fit of the baseline plus it.
     pub fn chosen(&self) -> Option<&(Effect, Scored)> {
-        self.first
-            .and_then(|e| self.scored.iter().find(|(x, _)| *x == e))
+        self.chain.first()
+    }
+
+    /// The first effect named.
+    pub fn first(&self) -> Option<Effect> {
+        self.chosen().map(|(e, _)| *e)
     }
 
     /// The effect the data needs of `effect` and the one it extends: the parent, unless
@@ -64,18 +71,12 @@ impl Search {
 
     /// The final model: the last effect named, or the baseline.
     pub fn last(&self) -> &Scored {
-        match (self.more.last(), self.chosen()) {
-            (Some((_, s)), _) | (None, Some((_, s))) => s,
-            (None, None) => &self.baseline,
-        }
+        self.chain.last().map_or(&self.baseline, |(_, s)| s)
     }
 
     /// Every effect named, in order, with the fit of the model up to it.
     pub fn named(&self) -> impl Iterator<Item = (Effect, &Scored)> {
-        let first = self.chosen().map(|(e, s)| (*e, s));
-        first
-            .into_iter()
-            .chain(self.more.iter().map(|(e, s)| (*e, s)))
+        self.chain.iter().map(|(e, s)| (*e, s))
     }
 
     /// Whether `effect`'s fit passes the significance rule against the baseline.
@@ -83,6 +84,62 @@ impl Search {
         let candidate = s.candidate(effect, &self.scales);
         significant(&self.baseline.reference(), &candidate, &self.holdout)
     }
+}
+
+/// What every fit of the search shares: the records, the quiet fit options, the user's
+/// problem, the baseline's parameters and scales, and the ripple's order peak.
+struct Context<'a> {
+    data: &'a Data,
+    quiet: FitOptions,
+    spec: ProblemSpec,
+    base_params: ModelParams,
+    scales: Scales,
+    ripple: OrderPeak,
+}
+
+impl Context<'_> {
+    /// The user's problem with every effect of `set` free (and what each extends), the
+    /// fixed values taken from `start`.
+    fn spec_of(&self, set: &[Effect], start: &ModelParams) -> Result<ProblemSpec> {
+        let mut s = self.spec;
+        s.base = *start;
+        for e in set {
+            s = with_effect(&s, *e, start, &self.scales, self.ripple.order)?;
+        }
+        s.base = *start;
+        Ok(s)
+    }
+
+    /// `p` with `effect`'s own parameters back at the baseline's values (the effect taken
+    /// out; what it extends stays).
+    fn without(&self, p: &ModelParams, effect: Effect) -> ModelParams {
+        let mut out = *p;
+        for id in effect.params() {
+            out.set(*id, self.base_params.get(*id));
+        }
+        out
+    }
+
+    /// The model of `set` fitted on the training records from `start`, and scored.
+    fn refit(&self, set: &[Effect], start: &ModelParams) -> Result<Scored> {
+        let spec = self.spec_of(set, start)?;
+        self.data
+            .score(refit_from(&self.data.train, &self.quiet, &spec, start)?)
+    }
+}
+
+/// `set` less `effect`: what `effect` extends takes its place unless the rest of the set
+/// holds it already (itself, or another effect that extends it).
+fn reduced(set: &[Effect], effect: Effect) -> Vec<Effect> {
+    let rest: Vec<Effect> = set.iter().copied().filter(|e| *e != effect).collect();
+    let held = |p: Effect| rest.iter().any(|e| *e == p || e.parent() == Some(p));
+    set.iter()
+        .filter_map(|e| match (*e == effect, e.parent()) {
+            (false, _) => Some(*e),
+            (true, Some(parent)) if !held(parent) => Some(parent),
+            (true, _) => None,
+        })
+        .collect()
 }
 
 /// Run the search on `data` with the user's fit options (`opts.quiet` silences the steps'
@@ -111,6 +168,14 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     let ripple = order_peak(&traces);
     let order = ripple.order;
     let scales = data.scales(&base_params);
+    let cx = Context {
+        data,
+        quiet: quiet.clone(),
+        spec,
+        base_params,
+        scales,
+        ripple,
+    };
 
     // Which: every effect of the catalogue the records can show, refitted on the training
     // records.
@@ -128,7 +193,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             usable.len()
         ));
         let s = with_effect(&spec, effect, &base_params, &scales, order)?;
-        data.score(fit_effect(data, &quiet, &s, effect, &ripple)?)
+        data.score(fit_effect(data, &quiet, &s, effect, &cx.ripple)?)
     });
     for (effect, f) in usable.iter().zip(fits) {
         scored.push((*effect, f?));
@@ -140,64 +205,138 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         scales,
         where_,
         scored,
-        first: None,
-        more: Vec::new(),
+        chain: Vec::new(),
     };
-    found.first = found
+    let Some(first) = found
         .scored
         .iter()
         .find(|(e, s)| found.significant(*e, s))
-        .map(|(e, _)| found.needed(*e));
+        .map(|(e, _)| found.needed(*e))
+    else {
+        return Ok(found);
+    };
+    let first_fit = found
+        .scored
+        .iter()
+        .find(|(e, _)| *e == first)
+        .map(|(_, s)| s.clone())
+        .expect("every usable effect was scored");
 
-    // More effects, one at a time, on what is left after the ones named so far.
-    let mut more: Vec<(Effect, Scored)> = Vec::new();
-    if let Some((e1, first_fit)) = found.chosen() {
-        let mut in_model = vec![*e1];
-        let mut params = first_fit.fit.result.params;
-        let mut model = with_effect(&spec, *e1, &base_params, &scales, order)?;
+    // Forward: more effects, one at a time, on what is left after the ones named so far.
+    let mut chain: Vec<(Effect, Scored)> = vec![(first, first_fit)];
+    let mut in_model = vec![first];
+    let mut model = with_effect(&spec, first, &base_params, &scales, order)?;
+    loop {
+        let (_, last) = chain.last().expect("the chain holds the first effect");
+        let params = last.fit.result.params;
         model.base = params;
-        let mut reference = first_fit.reference();
-        loop {
-            let mut best: Option<(Effect, Scored)> = None;
-            // An effect whose parameters are all in the model already (Coulomb friction
-            // under its extension) adds nothing.
-            let adds = |e: &Effect| e.params().iter().any(|id| !model.free[id.index()]);
-            let names: Vec<&str> = in_model.iter().map(|e| e.name()).collect();
-            let candidates: Vec<Effect> = usable
-                .iter()
-                .copied()
-                .filter(|e| !in_model.contains(e) && adds(e))
-                .collect();
-            let fits = in_parallel(candidates.len(), |k| {
-                let effect = candidates[k];
-                say(format!(
-                    "fitting {} on top of {}",
-                    effect.name(),
-                    names.join(" + ")
-                ));
-                let s = with_effect(&model, effect, &params, &scales, order)?;
-                data.score(fit_effect(data, &quiet, &s, effect, &ripple)?)
-            });
-            for (effect, f) in candidates.iter().zip(fits) {
-                let f = f?;
-                if significant(&reference, &f.candidate(*effect, &scales), &found.holdout)
-                    && best
-                        .as_ref()
-                        .is_none_or(|(_, b)| f.holdout_joint < b.holdout_joint)
-                {
-                    best = Some((*effect, f));
-                }
+        let reference = last.reference();
+        let mut best: Option<(Effect, Scored)> = None;
+        // An effect whose parameters are all in the model already (Coulomb friction under
+        // its extension) adds nothing.
+        let adds = |e: &Effect| e.params().iter().any(|id| !model.free[id.index()]);
+        let names: Vec<&str> = in_model.iter().map(|e| e.name()).collect();
+        let candidates: Vec<Effect> = usable
+            .iter()
+            .copied()
+            .filter(|e| !in_model.contains(e) && adds(e))
+            .collect();
+        let fits = in_parallel(candidates.len(), |k| {
+            let effect = candidates[k];
+            say(format!(
+                "fitting {} on top of {}",
+                effect.name(),
+                names.join(" + ")
+            ));
+            let s = with_effect(&model, effect, &params, &scales, order)?;
+            data.score(fit_effect(data, &quiet, &s, effect, &cx.ripple)?)
+        });
+        for (effect, f) in candidates.iter().zip(fits) {
+            let f = f?;
+            if significant(&reference, &f.candidate(*effect, &scales), &found.holdout)
+                && best
+                    .as_ref()
+                    .is_none_or(|(_, b)| f.holdout_joint < b.holdout_joint)
+            {
+                best = Some((*effect, f));
             }
-            let Some((effect, f)) = best else { break };
-            model = with_effect(&model, effect, &params, &scales, order)?;
-            params = f.fit.result.params;
-            model.base = params;
-            reference = f.reference();
-            in_model.push(effect);
-            more.push((effect, f));
+        }
+        let Some((effect, f)) = best else { break };
+        model = with_effect(&model, effect, &params, &scales, order)?;
+        in_model.push(effect);
+        chain.push((effect, f));
+    }
+
+    // The set named: an effect that extends another one in the model stands for both.
+    let forward: Vec<Effect> = chain.iter().map(|(e, _)| *e).collect();
+    let mut set: Vec<Effect> = forward
+        .iter()
+        .copied()
+        .filter(|e| !forward.iter().any(|c| c.parent() == Some(*e)))
+        .collect();
+    let (_, last) = chain.last().expect("the chain holds the first effect");
+    let mut fin = last.clone();
+
+    // Backward: drop the effect whose removal matters least while the rule does not call
+    // its removal significant.
+    while set.len() > 1 {
+        say(format!(
+            "checking each of {} against the model without it",
+            set.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + ")
+        ));
+        let fits = in_parallel(set.len(), |k| {
+            let rest = reduced(&set, set[k]);
+            let start = cx.without(&fin.fit.result.params, set[k]);
+            cx.refit(&rest, &start)
+        });
+        let mut weakest: Option<(usize, Scored)> = None;
+        for (k, f) in fits.into_iter().enumerate() {
+            let f = f?;
+            let earns = significant(
+                &f.reference(),
+                &fin.candidate(set[k], &scales),
+                &found.holdout,
+            );
+            if !earns
+                && weakest
+                    .as_ref()
+                    .is_none_or(|(_, w)| f.holdout_joint < w.holdout_joint)
+            {
+                weakest = Some((k, f));
+            }
+        }
+        let Some((k, f)) = weakest else { break };
+        say(format!(
+            "{} dropped: not significant in the final model",
+            set[k].name()
+        ));
+        set = reduced(&set, set[k]);
+        fin = f;
+    }
+
+    // The chain reported: the forward steps while they agree with the final set, then the
+    // models of the final set's prefixes refitted from the final fit, the last one the
+    // final fit itself.
+    let mut kept = Vec::new();
+    for (k, (effect, s)) in chain.into_iter().enumerate() {
+        if k + 1 < set.len() && set.get(k) == Some(&effect) && forward[..=k] == set[..=k] {
+            kept.push((effect, s));
+        } else {
+            break;
         }
     }
-    found.more = more;
+    for k in kept.len()..set.len() {
+        let step = if k + 1 == set.len() {
+            fin.clone()
+        } else {
+            let start = set[k + 1..]
+                .iter()
+                .fold(fin.fit.result.params, |p, e| cx.without(&p, *e));
+            cx.refit(&set[..=k], &start)?
+        };
+        kept.push((set[k], step));
+    }
+    found.chain = kept;
     Ok(found)
 }
 
@@ -262,9 +401,9 @@ fn with_effect(
 }
 
 /// Fit `spec` (an effect added to the model in `spec.base`) in two stages: the effect's
-/// parameters alone with everything else held at `base` (a search of one to three
+/// parameters alone with everything else held at `base` (a global search of one to three
 /// dimensions, started for the ripple from the order spectrum's amplitude and phase), then
-/// everything free from there.
+/// everything free from there by least squares (the start lies in the basin already).
 fn fit_effect(
     data: &Data,
     opts: &FitOptions,
@@ -289,5 +428,29 @@ fn fit_effect(
         }
     }
     let first = fit_from(&data.train, opts, &alone, Some(&start))?;
-    fit_from(&data.train, opts, spec, Some(&first.result.params))
+    refit_from(&data.train, opts, spec, &first.result.params)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_effect_taken_out_leaves_what_it_extends_unless_already_there() {
+        use Effect::{AsymmetricFriction, BridgeDeadtime, CoulombFriction, StaticFriction};
+        assert_eq!(
+            reduced(&[BridgeDeadtime, StaticFriction], StaticFriction),
+            vec![BridgeDeadtime, CoulombFriction]
+        );
+        assert_eq!(
+            reduced(&[StaticFriction, BridgeDeadtime], BridgeDeadtime),
+            vec![StaticFriction]
+        );
+        // Both extensions of Coulomb friction: taking one out leaves the other, which
+        // holds Coulomb friction already.
+        assert_eq!(
+            reduced(&[StaticFriction, AsymmetricFriction], StaticFriction),
+            vec![AsymmetricFriction]
+        );
+    }
 }

@@ -1,44 +1,47 @@
 //! `asymmetric_friction`: Coulomb friction that differs by direction (brush angle, a
-//! preloaded gear or seal): `tc + ta` turning forward, `tc - ta` backward (never below
-//! zero). It extends `coulomb_friction` (`tc` is that entry's): the diagnosis tries it on
-//! top of it.
+//! preloaded gear or seal): `tc (1 + ka)` turning forward, `tc (1 - ka)` backward, with
+//! `|ka| < 1`. It extends `coulomb_friction` (`tc` is that entry's): the diagnosis tries it
+//! on top of it.
+//!
+//! The asymmetry is a fraction of the Coulomb torque, not a torque of its own: written as
+//! `tc ± ta`, a fit could reach `|ta| > tc`, where the weaker direction's friction is
+//! clamped at zero (a friction that never drives the shaft) and flat in both parameters, a
+//! trap a local search does not leave; `ka` keeps both directions' friction positive and
+//! smooth everywhere in its box.
 
 use super::entry::{ids, one, EffectSpec, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
-    id: ParamId::Ta,
-    name: "ta",
-    key: "ta",
-    unit: "N m",
-    default_bounds: (-0.5, 0.5),
-    physical_range: (-f32::MAX, f32::MAX),
+    id: ParamId::Ka,
+    name: "ka",
+    key: "ka",
+    unit: "-",
+    default_bounds: (-0.9, 0.9),
+    physical_range: (-1.0, 1.0),
 }];
 
 /// The entry.
 pub const SPEC: EffectSpec = EffectSpec {
     name: "asymmetric_friction",
-    physics: "Coulomb friction tc + ta forward and tc - ta backward",
+    physics: "Coulomb friction tc (1 + ka) forward and tc (1 - ka) backward",
     needs_current: false,
     extends: Some("coulomb_friction"),
     params: &PARAMS,
     ids: &ids(&PARAMS),
-    // Up to a quarter of the stall torque either way.
-    search_bounds: |p, s| {
-        let t = 0.25 * s.stall_torque(p);
-        one(ParamId::Ta, -t, t)
-    },
-    // A friction `ta` larger forward and smaller backward is a constant torque `-ta` on a
-    // turning shaft: the measured speed falls short in both directions alike.
+    // Up to 90 % of the Coulomb torque either way.
+    search_bounds: |_, _| one(ParamId::Ka, -0.9, 0.9),
+    // A friction `ka tc` larger forward and smaller backward is a constant torque
+    // `-ka tc` on a turning shaft: the measured speed falls short in both directions alike.
     signature: Some(Signature {
         label: "minus one while turning",
         at: |x| -((x.omega.abs() > 0.02 * x.omega_max) as i32 as f64),
     }),
 };
 
-/// Its change of the friction magnitude for a motion in `direction` (+1, -1).
+/// Its change of the Coulomb torque `tc` for a motion in `direction` (+1, -1).
 #[inline(always)]
-pub fn excess(ta: f32, direction: f32) -> f32 {
-    ta * direction
+pub fn excess(tc: f32, ka: f32, direction: f32) -> f32 {
+    tc * ka * direction
 }

@@ -17,8 +17,8 @@ pub struct FrictionLaw {
     pub ts: f32,
     /// Stribeck speed [rad/s].
     pub ws: f32,
-    /// Direction asymmetry [N m].
-    pub ta: f32,
+    /// Direction asymmetry, a fraction of `tc` [-].
+    pub ka: f32,
 }
 
 impl FrictionLaw {
@@ -28,21 +28,22 @@ impl FrictionLaw {
             tc: p.get(ParamId::Tc),
             ts: p.get(ParamId::Ts),
             ws: p.get(ParamId::Ws),
-            ta: p.get(ParamId::Ta),
+            ka: p.get(ParamId::Ka),
         }
     }
 
     /// The torque opposing a motion (at rest: a drive) in `direction` (+1, -1; 0 gives 0) at
-    /// speed `w`: `direction max(tc + ts exp(-(w/ws)^2) + ta direction, 0)`. With Coulomb
-    /// friction alone it is `tc direction`, bit for bit.
+    /// speed `w`: `direction max(tc (1 + ka direction) + ts exp(-(w/ws)^2), 0)` (never
+    /// negative with `|ka| <= 1`; the floor guards other values). With Coulomb friction
+    /// alone it is `tc direction`, bit for bit.
     #[inline(always)]
     pub fn opposition(&self, direction: f32, w: f32) -> f32 {
         let mut magnitude = self.tc;
         if self.ts != 0.0 {
             magnitude += static_friction::excess(self.ts, self.ws, w);
         }
-        if self.ta != 0.0 {
-            magnitude += asymmetric_friction::excess(self.ta, direction);
+        if self.ka != 0.0 {
+            magnitude += asymmetric_friction::excess(self.tc, self.ka, direction);
         }
         coulomb_friction::torque(magnitude.max(0.0), direction)
     }

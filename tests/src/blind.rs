@@ -1,0 +1,175 @@
+//! Blind checks of `motor-id diagnose` on the independent reference plant: records with
+//! given effects on a motor and at sizes drawn from a seed (a few % of the stall torque, the
+//! supply voltage or the stall current), diagnosed through the CLI, and what was named.
+//! Used by `examples/blind_check.rs` (the benchmark over every new entry, pair and rate) and
+//! by `tests/diagnose_reference.rs`.
+
+use crate::reference_plant::{
+    csv, experiment, run, Effects, Gaussian, Motor, Run, Sensors, Shape, SpeedSensor,
+};
+use crate::{json, run_ok, s};
+use serde_json::Value;
+use std::collections::BTreeSet;
+use std::path::Path;
+use std::time::Instant;
+
+/// Supply voltage [V].
+const VOLTS: f64 = 24.0;
+/// Encoder lines (4 counts per line): a quantum of 2 pi / (8192 dt), 1.5 rad/s at 2 kHz.
+const LINES: u32 = 2048;
+/// White noise on the current reading [A] (0.2 % of a stall current near 24 A).
+const NOISE_CURRENT: f64 = 0.05;
+
+/// The new catalogue entries of this check, by the name the case line uses.
+pub const SINGLES: [&str; 4] = ["static", "asymmetric", "deadtime", "offset"];
+
+/// The catalogue name of a case's effect.
+pub fn entry(effect: &str) -> &'static str {
+    match effect {
+        "static" => "static_friction",
+        "asymmetric" => "asymmetric_friction",
+        "deadtime" => "bridge_deadtime",
+        "offset" => "current_offset",
+        other => panic!("unknown effect {other}"),
+    }
+}
+
+/// A motor near the reference plant's fast one (1 ohm, 20 mH, 2e-3 kg m^2, 0.08 V s/rad),
+/// each parameter scaled by a factor in [0.7, 1.4].
+fn motor(g: &mut Gaussian) -> Motor {
+    let mut f = || 0.7 + 0.7 * g.uniform();
+    Motor {
+        ra: f(),
+        la: 0.02 * f(),
+        j: 0.002 * f(),
+        b: 0.001 * f(),
+        kv: 0.08 * f(),
+    }
+}
+
+/// Effect sizes for `effects` on `m`: Coulomb 2-4 % of the stall torque, a break-away excess
+/// 2-5 % over 2-10 % of the top speed, an asymmetry of a third to two thirds of the Coulomb
+/// torque, a dead-time error of 2-4 % of the supply over 2-5 % of the stall current, a
+/// current offset of 1-3 % of the stall current (either sign).
+fn effects(names: &[&str], m: &Motor, g: &mut Gaussian) -> Effects {
+    let stall_torque = VOLTS / m.ra * m.kv;
+    let stall_current = VOLTS / m.ra;
+    let top = m.steady_speed(VOLTS);
+    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * g.uniform();
+    let mut e = Effects::default();
+    for name in names {
+        match *name {
+            "static" | "asymmetric" if e.tc == 0.0 => e.tc = u(0.02, 0.04) * stall_torque,
+            _ => {}
+        }
+        match *name {
+            "static" => {
+                e.ts = u(0.02, 0.05) * stall_torque;
+                e.ws = u(0.02, 0.1) * top;
+            }
+            "asymmetric" => {
+                let sign = if u(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+                e.ta = sign * u(0.33, 0.67) * e.tc;
+            }
+            "deadtime" => {
+                e.vdt = u(0.02, 0.04) * VOLTS;
+                e.ib = u(0.02, 0.05) * stall_current;
+            }
+            "offset" => {
+                let sign = if u(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+                e.io = sign * u(0.01, 0.03) * stall_current;
+            }
+            other => panic!("unknown effect {other}"),
+        }
+    }
+    e
+}
+
+/// One case's outcome.
+pub struct Outcome {
+    /// The effects named (`verdict.effects`).
+    pub named: BTreeSet<String>,
+    /// `verdict.unexplained`.
+    pub unexplained: bool,
+    /// Estimated over true speed noise of the held-out records.
+    pub noise_ratio: f64,
+    /// Wall time of the diagnosis [s].
+    pub seconds: f64,
+}
+
+/// RMS of the encoder's reading against the true mean speed over each sample.
+fn true_noise(r: &Run) -> f64 {
+    let n = r.omega.len();
+    let sum: f64 = (1..n).map(|k| (r.omega[k] - r.mean_speed(k)).powi(2)).sum();
+    (sum / (n - 1) as f64).sqrt()
+}
+
+/// Simulate the records (train: ramp, steps, reversal; held out: reversal, ramp) and
+/// diagnose them.
+pub fn check(dir: &Path, names: &[&str], rate: f64, seed: u64) -> Outcome {
+    let mut g = Gaussian::new(seed * 7919 + rate as u64);
+    let m = motor(&mut g);
+    let e = effects(names, &m, &mut g);
+    // Five of the slowest time constant per record (J Ra / (Ra B + Kv^2)), at least 1 s.
+    let tau = m.j * m.ra / (m.ra * m.b + m.kv * m.kv);
+    let duration = (5.0 * tau).max(1.0);
+    let shapes = [
+        ("ramp", Shape::Ramp),
+        ("steps", Shape::Steps),
+        ("reversal", Shape::Reversal),
+        ("reversal_held_out", Shape::Reversal),
+        ("ramp_held_out", Shape::Ramp),
+    ];
+    let mut paths = Vec::new();
+    let mut noise = Vec::new();
+    for (k, (name, shape)) in shapes.into_iter().enumerate() {
+        let sensors = Sensors {
+            speed: SpeedSensor::Encoder { lines: LINES },
+            noise_omega: 0.0,
+            noise_current: NOISE_CURRENT,
+            seed: seed * 100 + k as u64,
+        };
+        let r = run(m, e, sensors, experiment(shape, VOLTS, rate, duration));
+        if k >= 3 {
+            noise.push(true_noise(&r));
+        }
+        let path = dir.join(format!("{name}.csv"));
+        csv::write(&r, &path, true);
+        paths.push(path);
+    }
+    let report = dir.join("diag.json");
+    let mut args = vec!["diagnose", "--train"];
+    args.extend(paths[..3].iter().map(|p| s(p)));
+    args.push("--holdout");
+    args.extend(paths[3..].iter().map(|p| s(p)));
+    args.extend(["--json", s(&report), "-q"]);
+    let start = Instant::now();
+    run_ok(&args);
+    let seconds = start.elapsed().as_secs_f64();
+    let v: Value = json(&report)["verdict"].clone();
+    if std::env::var_os("BLIND_VERBOSE").is_some() {
+        eprintln!("truth {e:?}\nverdict {v:#}");
+    }
+    let named = v["effects"]
+        .as_array()
+        .expect("verdict.effects")
+        .iter()
+        .map(|x| x["name"].as_str().expect("effect name").to_string())
+        .collect();
+    let truth = (noise[0].powi(2) + noise[1].powi(2)).sqrt() / 2f64.sqrt();
+    Outcome {
+        named,
+        unexplained: v["unexplained"].as_bool().expect("verdict.unexplained"),
+        noise_ratio: v["holdout_noise"].as_f64().expect("verdict.holdout_noise") / truth,
+        seconds,
+    }
+}
+
+/// A case's name: `null`, or its effects joined by `+`.
+pub fn label(case: &[&str]) -> String {
+    if case.is_empty() {
+        "null".into()
+    } else {
+        case.join("+")
+    }
+}
