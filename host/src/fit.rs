@@ -4,7 +4,7 @@
 use crate::csvio::OwnedRecord;
 use crate::progress::FitProgress;
 use crate::report::identify::FitQuality;
-use crate::spec::problem;
+use crate::spec::{parse_bounds, parse_fix, problem, BoundsSpec, FixSpec};
 use anyhow::{anyhow, Result};
 use clap::Args;
 use motor_id_shared::fit::ffo::{FfoConfig, Soil};
@@ -19,11 +19,11 @@ use std::ops::ControlFlow;
 pub struct FitOptions {
     /// Search bounds, e.g. `ra=0.5:10,j=1e-6:1e-3` (default: seed Table 1). Bounds on an
     /// effect parameter (e.g. `tc=0:0.1`) fit that effect.
-    #[arg(long, value_name = "P=LO:HI,...")]
-    pub bounds: Vec<String>,
+    #[arg(long, value_name = "P=LO:HI,...", value_parser = parse_bounds)]
+    pub bounds: Vec<BoundsSpec>,
     /// Hold parameters at known values, e.g. `ra=3.4,la=0.00285`.
-    #[arg(long, value_name = "P=V,...")]
-    pub fix: Vec<String>,
+    #[arg(long, value_name = "P=V,...", value_parser = parse_fix)]
+    pub fix: Vec<FixSpec>,
     /// Random seed (same seed and data, same result).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

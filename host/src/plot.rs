@@ -4,6 +4,7 @@
 use crate::output::write_atomically;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontStyle;
 use std::path::Path;
 use std::sync::Once;
@@ -81,81 +82,145 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
+/// Height of a row of panels [px].
+const ROW_HEIGHT: u32 = 350;
+
+/// Height of a panel's head: its title, and below it the legend row [px].
+const HEAD_HEIGHT: u32 = 52;
+
+/// A drawing area of the PNG.
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
 /// Draw `panels` stacked vertically into a PNG.
 pub fn draw(path: &Path, panels: &[Panel]) -> Result<()> {
-    write_atomically(path, |tmp| draw_to(tmp, path, panels))
+    let rows: Vec<&[Panel]> = panels.chunks(1).collect();
+    draw_rows(path, &rows)
 }
 
-/// [`draw`] into the file `tmp` (`path` names it in errors).
-fn draw_to(tmp: &Path, path: &Path, panels: &[Panel]) -> Result<()> {
+/// Draw `rows` of panels stacked vertically into a PNG, the panels of a row side by side.
+pub fn draw_rows(path: &Path, rows: &[&[Panel]]) -> Result<()> {
+    write_atomically(path, |tmp| draw_to(tmp, path, rows))
+}
+
+/// [`draw_rows`] into the file `tmp` (`path` names it in errors).
+fn draw_to(tmp: &Path, path: &Path, rows: &[&[Panel]]) -> Result<()> {
     register_font();
-    let height = 330 * panels.len() as u32;
+    let height = ROW_HEIGHT * rows.len() as u32;
     let root = BitMapBackend::new(tmp, (1200, height)).into_drawing_area();
     let err = |e: &dyn std::fmt::Display| anyhow!("cannot draw {}: {e}", path.display());
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let areas = root.split_evenly((panels.len(), 1));
-    for (panel, area) in panels.iter().zip(areas.iter()) {
-        if let Some(labels) = &panel.categories {
-            draw_bars(area, panel, labels).map_err(|e| err(&e))?;
-            continue;
-        }
-        let points: Vec<Vec<(f64, f64)>> = panel.series.iter().map(decimated).collect();
-        let (x0, x1) = range(points.iter().flatten().map(|p| p.0), false);
-        // A logarithmic axis labels only powers of ten: a range within one decade would show
-        // no label at all, so it is drawn linear.
-        let (lo, hi) = range(points.iter().flatten().map(|p| p.1), true);
-        let log_y = panel.log_y && hi / lo >= 10.0;
-        let (y0, y1) = range(points.iter().flatten().map(|p| p.1), log_y);
-        let mut builder = ChartBuilder::on(area);
-        builder
-            .caption(&panel.title, ("sans-serif", 20))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(80);
-        macro_rules! finish {
-            ($chart:expr) => {{
-                let mut chart = $chart;
-                chart
-                    .configure_mesh()
-                    .x_desc(panel.x_label)
-                    .y_desc(panel.y_label)
-                    .label_style(("sans-serif", 14))
-                    .draw()
-                    .map_err(|e| err(&e))?;
-                for (s, pts) in panel.series.iter().zip(points.iter()) {
-                    let color = s.color;
-                    chart
-                        .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(1)))
-                        .map_err(|e| err(&e))?
-                        .label(s.label)
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
-                }
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 14))
-                    .draw()
-                    .map_err(|e| err(&e))?;
-            }};
-        }
-        if log_y {
-            finish!(builder
-                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
-                .map_err(|e| err(&e))?);
-        } else {
-            finish!(builder
-                .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(|e| err(&e))?);
+    for (row, row_area) in rows.iter().zip(root.split_evenly((rows.len(), 1))) {
+        for (panel, area) in row.iter().zip(row_area.split_evenly((1, row.len().max(1)))) {
+            draw_panel(&area, panel).map_err(|e| err(&e))?;
         }
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
 
+/// How a series is marked in the legend.
+#[derive(Clone, Copy)]
+enum Mark {
+    /// A short line (a line series).
+    Line,
+    /// A filled square (a bar series).
+    Bar,
+}
+
+/// The panel's head in `area`: its title centred on the first line and, on the second, the
+/// legend (each series' mark and label, side by side and centred), so that no legend lies
+/// over the data. The area below is returned.
+fn head<'a>(
+    area: &Area<'a>,
+    panel: &Panel,
+    mark: Mark,
+) -> std::result::Result<Area<'a>, Box<dyn std::error::Error>> {
+    let (top, body) = area.split_vertically(HEAD_HEIGHT);
+    let width = top.dim_in_pixel().0 as i32;
+    let title = ("sans-serif", 20)
+        .into_font()
+        .into_text_style(&top)
+        .pos(Pos::new(HPos::Center, VPos::Top));
+    top.draw_text(&panel.title, &title, (width / 2, 6))?;
+    let font = ("sans-serif", 14).into_font().into_text_style(&top);
+    let (mark_w, gap, spacing) = (22, 6, 24);
+    let widths = panel
+        .series
+        .iter()
+        .map(|s| Ok(top.estimate_text_size(s.label, &font)?.0 as i32))
+        .collect::<std::result::Result<Vec<i32>, DrawingAreaErrorKind<_>>>()?;
+    let total: i32 = widths.iter().map(|w| mark_w + gap + w).sum::<i32>()
+        + spacing * (widths.len() as i32 - 1).max(0);
+    let (mut x, y) = ((width - total).max(0) / 2, 38);
+    let label = font.pos(Pos::new(HPos::Left, VPos::Center));
+    for (s, w) in panel.series.iter().zip(&widths) {
+        match mark {
+            Mark::Line => top.draw(&PathElement::new(
+                vec![(x, y), (x + mark_w, y)],
+                s.color.stroke_width(2),
+            ))?,
+            Mark::Bar => top.draw(&Rectangle::new(
+                [(x + 5, y - 6), (x + mark_w - 5, y + 6)],
+                s.color.filled(),
+            ))?,
+        }
+        top.draw_text(s.label, &label, (x + mark_w + gap, y))?;
+        x += mark_w + gap + w + spacing;
+    }
+    Ok(body)
+}
+
+/// One panel in `area`: its head, then its lines (or bars).
+fn draw_panel(
+    area: &Area<'_>,
+    panel: &Panel,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    if let Some(labels) = &panel.categories {
+        let body = head(area, panel, Mark::Bar)?;
+        return draw_bars(&body, panel, labels);
+    }
+    let body = head(area, panel, Mark::Line)?;
+    let points: Vec<Vec<(f64, f64)>> = panel.series.iter().map(decimated).collect();
+    let (x0, x1) = range(points.iter().flatten().map(|p| p.0), false);
+    // A logarithmic axis labels only powers of ten: a range within one decade would show no
+    // label at all, so it is drawn linear.
+    let (lo, hi) = range(points.iter().flatten().map(|p| p.1), true);
+    let log_y = panel.log_y && hi / lo >= 10.0;
+    let (y0, y1) = range(points.iter().flatten().map(|p| p.1), log_y);
+    let mut builder = ChartBuilder::on(&body);
+    builder
+        .margin(10)
+        .margin_top(4)
+        .x_label_area_size(40)
+        .y_label_area_size(80);
+    macro_rules! finish {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            chart
+                .configure_mesh()
+                .x_desc(panel.x_label)
+                .y_desc(panel.y_label)
+                .label_style(("sans-serif", 14))
+                .draw()?;
+            for (s, pts) in panel.series.iter().zip(points.iter()) {
+                chart.draw_series(LineSeries::new(
+                    pts.iter().copied(),
+                    s.color.stroke_width(1),
+                ))?;
+            }
+        }};
+    }
+    if log_y {
+        finish!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale())?);
+    } else {
+        finish!(builder.build_cartesian_2d(x0..x1, y0..y1)?);
+    }
+    Ok(())
+}
+
 /// Grouped bars: one group per category, one bar per series.
 fn draw_bars(
-    area: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+    area: &Area<'_>,
     panel: &Panel,
     labels: &[String],
 ) -> std::result::Result<(), Box<dyn std::error::Error>> {
@@ -168,8 +233,8 @@ fn draw_bars(
         .max(1e-9)
         * 1.1;
     let mut chart = ChartBuilder::on(area)
-        .caption(&panel.title, ("sans-serif", 20))
         .margin(10)
+        .margin_top(4)
         .x_label_area_size(40)
         .y_label_area_size(80)
         .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), 0.0f64..top)?;
@@ -193,21 +258,12 @@ fn draw_bars(
     for (g, s) in panel.series.iter().enumerate() {
         let color = s.color;
         let left = |k: usize| k as f64 - 0.4 + g as f64 * width;
-        chart
-            .draw_series(s.y.iter().enumerate().map(|(k, y)| {
-                Rectangle::new(
-                    [(left(k), 0.0), (left(k) + width, *y as f64)],
-                    color.filled(),
-                )
-            }))?
-            .label(s.label)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], color.filled()));
+        chart.draw_series(s.y.iter().enumerate().map(|(k, y)| {
+            Rectangle::new(
+                [(left(k), 0.0), (left(k) + width, *y as f64)],
+                color.filled(),
+            )
+        }))?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .draw()?;
     Ok(())
 }

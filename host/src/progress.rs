@@ -3,6 +3,35 @@
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use motor_id_shared::fit::identify::{Progress, Stage};
 
+/// What the bar shows at one moment: its label, how far along its stage is, and a message.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BarState {
+    /// The stage's label (`FFO`, `refine`, `experiment`).
+    pub prefix: &'static str,
+    /// Steps done in the stage.
+    pub position: u64,
+    /// Steps the stage runs at most: the bar's length, fixed for the stage (a position past it
+    /// stretches it, so the bar never runs backwards).
+    pub length: u64,
+    /// What else to say (evaluations, best fitness).
+    pub message: String,
+}
+
+impl BarState {
+    /// The bar after one iteration of an identification.
+    pub fn of(p: &Progress) -> BarState {
+        BarState {
+            prefix: match p.stage {
+                Stage::Search => "FFO",
+                Stage::Refine => "refine",
+            },
+            position: u64::from(p.iteration),
+            length: u64::from(p.iterations.max(p.iteration).max(1)),
+            message: format!("{} evaluations, best {:.5}", p.evaluations, p.best),
+        }
+    }
+}
+
 /// A progress bar fed by the identification's progress callback.
 pub struct FitProgress {
     bar: ProgressBar,
@@ -20,7 +49,7 @@ impl FitProgress {
             },
         );
         bar.set_style(
-            ProgressStyle::with_template("{spinner} {prefix:>7} [{bar:30}] {pos}/{len} {msg}")
+            ProgressStyle::with_template("{spinner} {prefix:>10} [{bar:30}] {pos}/{len} {msg}")
                 .expect("static template")
                 .progress_chars("=> "),
         );
@@ -29,14 +58,15 @@ impl FitProgress {
 
     /// Report one iteration.
     pub fn update(&self, p: &Progress) {
-        self.bar.set_prefix(match p.stage {
-            Stage::Search => "FFO",
-            Stage::Refine => "refine",
-        });
-        self.bar.set_length(p.iterations as u64);
-        self.bar.set_position(p.iteration as u64);
-        self.bar
-            .set_message(format!("{} evaluations, best {:.5}", p.evaluations, p.best));
+        self.show(&BarState::of(p));
+    }
+
+    /// Show `s`.
+    pub fn show(&self, s: &BarState) {
+        self.bar.set_prefix(s.prefix);
+        self.bar.set_length(s.length);
+        self.bar.set_position(s.position);
+        self.bar.set_message(s.message.clone());
     }
 
     /// Remove the bar.

@@ -2,7 +2,7 @@
 //! `demo`) and the record it produces.
 
 use crate::csvio::OwnedRecord;
-use crate::spec::{apply_effect, parse_motor};
+use crate::spec::{parse_effect, parse_motor, EffectSpec};
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use motor_id_shared::model::profile::{
@@ -15,22 +15,46 @@ use std::path::PathBuf;
 /// Most samples one simulation may write.
 const MAX_SAMPLES: usize = 20_000_000;
 
+/// The experiments by name (`motor_id_shared::model::profile::Profile`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProfileArg {
+    /// Voltage step from rest (seed Figs. 9, 11).
+    Start,
+    /// Half voltage, up to full at 1/3, down to a quarter at 2/3 (seed Figs. 13-14).
+    Steps,
+    /// Full voltage, a known load torque step at half time (seed Fig. 12).
+    Load,
+    /// Full voltage, reversed to minus full voltage at half time.
+    Reversal,
+}
+
+impl From<ProfileArg> for Profile {
+    fn from(p: ProfileArg) -> Profile {
+        match p {
+            ProfileArg::Start => Profile::Start,
+            ProfileArg::Steps => Profile::Steps,
+            ProfileArg::Load => Profile::Load,
+            ProfileArg::Reversal => Profile::Reversal,
+        }
+    }
+}
+
 /// A simulated experiment (the arguments of `simulate`).
 #[derive(Args, Debug, Clone)]
 pub struct SimulateArgs {
     /// Motor parameters `ra=..,la=..,j=..,b=..,kv=..` (default: the seed's identified motor
     /// ra=3.412,la=0.0573,j=0.0424,b=0.00267,kv=0.1604).
-    #[arg(long, value_name = "ra=..,la=..,j=..,b=..,kv=..")]
-    pub motor: Option<String>,
-    /// Experiment: start, steps, load or reversal.
-    #[arg(long, default_value = "start")]
-    pub profile: String,
+    #[arg(long, value_name = "ra=..,la=..,j=..,b=..,kv=..", value_parser = parse_motor)]
+    pub motor: Option<ModelParams>,
+    /// Experiment.
+    #[arg(long, value_enum, default_value_t = ProfileArg::Start)]
+    pub profile: ProfileArg,
     /// Output record CSV.
     #[arg(long)]
     pub out: PathBuf,
     /// Add an effect, e.g. `coulomb_friction:tc=0.05` (repeatable).
-    #[arg(long, value_name = "NAME:key=val,...")]
-    pub effect: Vec<String>,
+    #[arg(long, value_name = "NAME:key=val,...", value_parser = parse_effect)]
+    pub effect: Vec<EffectSpec>,
     /// Standard deviation of white noise on the speed reading [rad/s].
     #[arg(long, default_value_t = 0.0)]
     pub noise_omega: f32,
@@ -63,19 +87,11 @@ pub struct SimulateArgs {
 
 /// Build the simulated record described by `a`.
 pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
-    let mut p = match &a.motor {
-        Some(text) => parse_motor(text)?,
-        None => ModelParams::SEED_MOTOR,
-    };
+    let mut p = a.motor.unwrap_or(ModelParams::SEED_MOTOR);
     for e in &a.effect {
-        apply_effect(&mut p, e)?;
+        e.apply(&mut p)?;
     }
-    let profile = Profile::from_name(&a.profile).ok_or_else(|| {
-        anyhow!(
-            "--profile: unknown profile '{}' (known: start, steps, load, reversal)",
-            a.profile
-        )
-    })?;
+    let profile = Profile::from(a.profile);
     if !(a.rate.is_finite() && a.rate > 0.0) {
         bail!("--rate must be a positive number of Hz");
     }

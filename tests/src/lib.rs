@@ -62,14 +62,15 @@ pub fn run_ok(args: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("UTF-8 stdout")
 }
 
-/// Run `motor-id` expecting failure; returns the stderr text after checking it is one clear
-/// line and not a panic.
+/// Run `motor-id` expecting an error (exit status 1); returns the stderr text after checking
+/// it is one clear line and not a panic.
 pub fn run_err(args: &[&str]) -> String {
     let out = run(args);
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(
-        !out.status.success(),
-        "motor-id {args:?} should have failed"
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "motor-id {args:?} should have failed with status 1: {stderr}"
     );
     assert!(!stderr.contains("panicked"), "panic on {args:?}: {stderr}");
     assert!(
@@ -80,6 +81,24 @@ pub fn run_err(args: &[&str]) -> String {
         stderr.trim_end().lines().count(),
         1,
         "not one line on {args:?}: {stderr}"
+    );
+    stderr
+}
+
+/// Run `motor-id` expecting a usage error from clap (exit status 2); returns the stderr text
+/// after checking it is not a panic and that its first line is clap's `error: ...`.
+pub fn run_usage_err(args: &[&str]) -> String {
+    let out = run(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "motor-id {args:?} should have been a usage error (status 2): {stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "panic on {args:?}: {stderr}");
+    assert!(
+        stderr.starts_with("error: "),
+        "not clap's usage error on {args:?}: {stderr}"
     );
     stderr
 }

@@ -1,6 +1,7 @@
-//! Bad input: one clear line on stderr, non-zero exit, never a panic.
+//! Bad input: one clear line on stderr and exit status 1, or clap's usage error and exit
+//! status 2 for a malformed option value; never a panic.
 
-use motor_id_tests::{run_err, s};
+use motor_id_tests::{run_err, run_usage_err, s};
 use std::path::PathBuf;
 
 fn file(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
@@ -140,44 +141,9 @@ fn bad_options_are_refused_with_one_line() {
     );
     let ok = s(&p);
     for (args, expect) in [
-        (vec!["identify", ok, "--bounds", "ra=5:1"], "lo 5 >= hi 1"),
-        (vec!["identify", ok, "--bounds", "ra=1:1"], ">= hi"),
-        (
-            vec!["identify", ok, "--bounds", "xyz=1:2"],
-            "unknown parameter 'xyz'",
-        ),
-        (vec!["identify", ok, "--bounds", "ra=1"], "LO:HI"),
-        (vec!["identify", ok, "--bounds", "ra=-1:2"], "bound of ra"),
-        (
-            vec!["identify", ok, "--fix", "foo=1"],
-            "unknown parameter 'foo'",
-        ),
-        (vec!["identify", ok, "--fix", "ra=abc"], "not a number"),
         (
             vec!["identify", ok, "--fix", "ra=1,la=1,j=1,b=1,kv=1"],
             "nothing to identify",
-        ),
-        (
-            vec!["simulate", "--profile", "warp", "--out", "x.csv"],
-            "unknown profile",
-        ),
-        (
-            vec!["simulate", "--motor", "ra=1,la=1", "--out", "x.csv"],
-            "missing j",
-        ),
-        (
-            vec!["simulate", "--effect", "bogus:x=1", "--out", "x.csv"],
-            "unknown effect",
-        ),
-        (
-            vec![
-                "simulate",
-                "--effect",
-                "coulomb_friction:tc=-1",
-                "--out",
-                "x.csv",
-            ],
-            "outside",
         ),
         (vec!["simulate", "--rate", "0", "--out", "x.csv"], "--rate"),
         (
@@ -193,10 +159,6 @@ fn bad_options_are_refused_with_one_line() {
             "ra is bounded twice",
         ),
         (
-            vec!["identify", ok, "--bounds", "kv=1e-20:1e20"],
-            "more than 12 decades",
-        ),
-        (
             vec!["diagnose", "--train", ok, "--holdout", ok],
             "is the training record",
         ),
@@ -207,6 +169,129 @@ fn bad_options_are_refused_with_one_line() {
             "{args:?}: expected '{expect}' in: {err}"
         );
     }
+}
+
+#[test]
+fn malformed_option_values_are_usage_errors_that_name_the_option() {
+    let d = tempfile::tempdir().unwrap();
+    let p = file(
+        &d,
+        "ok.csv",
+        &rows(50, |k| format!("{},{},{}", k as f64 * 0.01, 10, k)),
+    );
+    let ok = s(&p);
+    let out = d.path().join("x.csv");
+    let out = s(&out);
+    // A value from a fixed set: clap lists the possible values.
+    for (args, expect) in [
+        (
+            vec!["simulate", "--profile", "warp", "--out", out],
+            "[possible values: start, steps, load, reversal]",
+        ),
+        (
+            vec!["identify", ok, "--pipeline", "fast"],
+            "[possible values: default, board, paper]",
+        ),
+        (
+            vec![
+                "board",
+                "--port",
+                "/nonexistent",
+                "identify",
+                ok,
+                "--pipeline",
+                "x",
+            ],
+            "[possible values: default, board, paper]",
+        ),
+        (
+            vec![
+                "diagnose",
+                "--train",
+                ok,
+                "--holdout",
+                ok,
+                "--without",
+                "coulomb_friction,warp",
+            ],
+            "[possible values: coulomb_friction, quadratic_load,",
+        ),
+    ] {
+        let err = run_usage_err(&args);
+        assert!(
+            err.contains(expect),
+            "{args:?}: expected '{expect}' in: {err}"
+        );
+    }
+    // A malformed spec: clap's error names the option and says what is wrong.
+    for (args, expect) in [
+        (
+            vec!["identify", ok, "--bounds", "ra=5:1"],
+            "'--bounds <P=LO:HI,...>': ra has lo 5 >= hi 1",
+        ),
+        (vec!["identify", ok, "--bounds", "ra=1:1"], ">= hi"),
+        (
+            vec!["identify", ok, "--bounds", "xyz=1:2"],
+            "unknown parameter 'xyz'",
+        ),
+        (vec!["identify", ok, "--bounds", "ra=1"], "ra needs LO:HI"),
+        (vec!["identify", ok, "--bounds", "ra=-1:2"], "bound of ra"),
+        (
+            vec!["identify", ok, "--bounds", "kv=1e-20:1e20"],
+            "more than 12 decades",
+        ),
+        (
+            vec!["diagnose", "--train", ok, "--holdout", ok, "--fix", "foo=1"],
+            "'--fix <P=V,...>': unknown parameter 'foo'",
+        ),
+        (
+            vec!["compare", ok, "--fix", "ra=abc"],
+            "ra: 'abc' is not a number",
+        ),
+        (
+            vec!["identify", ok, "--fix", "ra=-1"],
+            "fixed value of ra is out of range",
+        ),
+        (
+            vec!["simulate", "--motor", "ra=1,la=1", "--out", out],
+            "'--motor <ra=..,la=..,j=..,b=..,kv=..>': missing j",
+        ),
+        (
+            vec![
+                "simulate",
+                "--motor",
+                "ra=1,la=1,j=1,b=1,tc=1",
+                "--out",
+                out,
+            ],
+            "'tc' is an effect parameter",
+        ),
+        (
+            vec!["simulate", "--effect", "bogus:x=1", "--out", out],
+            "unknown effect 'bogus' (known: coulomb_friction,",
+        ),
+        (
+            vec!["simulate", "--effect", "sensor_delay:amp=1", "--out", out],
+            "sensor_delay: unknown key 'amp'",
+        ),
+        (
+            vec![
+                "simulate",
+                "--effect",
+                "coulomb_friction:tc=-1",
+                "--out",
+                out,
+            ],
+            "tc = -1 is outside",
+        ),
+    ] {
+        let err = run_usage_err(&args);
+        assert!(
+            err.contains(expect),
+            "{args:?}: expected '{expect}' in: {err}"
+        );
+    }
+    assert!(!std::path::Path::new(out).exists());
 }
 
 #[test]

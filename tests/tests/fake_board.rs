@@ -123,6 +123,7 @@ fn a_board_that_repeats_itself_or_sends_stray_frames_is_timed_out() {
     let stuck = BoardMessage::Progress {
         stage: JobStage::Refine,
         iteration: 3,
+        total: 100,
         evaluations: 40,
         best: 0.5,
     };
@@ -169,6 +170,7 @@ fn frames_that_arrive_in_one_read_are_all_decoded() {
                 BoardMessage::Progress {
                     stage: JobStage::Experiment,
                     iteration: 0,
+                    total: 2048,
                     evaluations: 0,
                     best: 0.0,
                 },
@@ -213,6 +215,7 @@ fn ctrl_c_during_a_job_aborts_it_on_the_board() {
                 BoardMessage::Progress {
                     stage: JobStage::Refine,
                     iteration: k,
+                    total: 1000,
                     evaluations: k,
                     best: 0.5,
                 }

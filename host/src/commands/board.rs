@@ -4,7 +4,7 @@
 use crate::csvio::OwnedRecord;
 use crate::fit::PipelineArg;
 use crate::output::write_json;
-use crate::progress::FitProgress;
+use crate::progress::{BarState, FitProgress};
 use crate::report::{ByParam, Num, ParamEstimate};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
@@ -219,27 +219,21 @@ fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
     let mut last = None;
     let out = loop {
         match c.receive_until(deadline) {
-            Ok(BoardMessage::Progress {
-                stage,
-                iteration,
-                evaluations,
-                best,
-            }) => {
+            Ok(
+                frame @ BoardMessage::Progress {
+                    stage,
+                    iteration,
+                    evaluations,
+                    ..
+                },
+            ) => {
                 if last != Some((stage, iteration, evaluations)) {
                     last = Some((stage, iteration, evaluations));
                     deadline = Instant::now() + c.timeout;
                 }
-                let stage = match stage {
-                    JobStage::Search | JobStage::Experiment => Stage::Search,
-                    JobStage::Refine => Stage::Refine,
-                };
-                bar.update(&Progress {
-                    stage,
-                    iteration,
-                    iterations: iteration.max(1),
-                    evaluations,
-                    best,
-                });
+                if let Some(state) = bar_state(&frame) {
+                    bar.show(&state);
+                }
             }
             Ok(BoardMessage::Identified(report)) => break Ok(report),
             Ok(BoardMessage::Aborted) => break Err(anyhow!("the board aborted the job")),
@@ -251,6 +245,41 @@ fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
     };
     bar.finish();
     out
+}
+
+/// The progress bar a board's progress frame shows (`None` for other messages): the stage's
+/// position against the total the frame carries, so that the bar's length is the job's
+/// known length and does not grow frame by frame.
+fn bar_state(frame: &BoardMessage) -> Option<BarState> {
+    let &BoardMessage::Progress {
+        stage,
+        iteration,
+        total,
+        evaluations,
+        best,
+    } = frame
+    else {
+        return None;
+    };
+    let stage = match stage {
+        JobStage::Experiment => {
+            return Some(BarState {
+                prefix: "experiment",
+                position: u64::from(iteration),
+                length: u64::from(total.max(iteration).max(1)),
+                message: String::from("samples"),
+            })
+        }
+        JobStage::Search => Stage::Search,
+        JobStage::Refine => Stage::Refine,
+    };
+    Some(BarState::of(&Progress {
+        stage,
+        iteration,
+        iterations: total,
+        evaluations,
+        best,
+    }))
 }
 
 /// Ctrl-C was pressed while the host waited for the board.

@@ -61,3 +61,41 @@ fn a_parameter_code_this_host_does_not_know_is_an_error() {
     let err = BoardReport::new(&r).unwrap_err().to_string();
     assert_eq!(err, "the board reports an unknown parameter (code 200)");
 }
+
+#[test]
+fn the_progress_bar_is_as_long_as_the_stage_the_board_announces() {
+    let frame = |stage, iteration| BoardMessage::Progress {
+        stage,
+        iteration,
+        total: 40,
+        evaluations: 10 * iteration,
+        best: 0.5,
+    };
+    // Frame after frame of one stage: the position advances, the length stays the total.
+    for stage in [JobStage::Experiment, JobStage::Search, JobStage::Refine] {
+        let states: Vec<BarState> = (1..=5)
+            .map(|k| bar_state(&frame(stage, k)).unwrap())
+            .collect();
+        assert!(
+            states.iter().all(|s| s.length == 40),
+            "{stage:?}: {states:?}"
+        );
+        let positions: Vec<u64> = states.iter().map(|s| s.position).collect();
+        assert_eq!(positions, [1, 2, 3, 4, 5], "{stage:?}");
+    }
+    assert_eq!(
+        bar_state(&frame(JobStage::Experiment, 0)).unwrap().prefix,
+        "experiment"
+    );
+    assert_eq!(
+        bar_state(&frame(JobStage::Search, 0)).unwrap().prefix,
+        "FFO"
+    );
+    assert_eq!(
+        bar_state(&frame(JobStage::Refine, 0)).unwrap().prefix,
+        "refine"
+    );
+    // A board that runs past its announced total stretches the bar instead of overfilling it.
+    assert_eq!(bar_state(&frame(JobStage::Refine, 50)).unwrap().length, 50);
+    assert_eq!(bar_state(&BoardMessage::Cleared), None);
+}

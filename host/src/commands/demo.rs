@@ -7,7 +7,7 @@ use crate::fit_plot::plot_fit;
 use crate::output::write_json;
 use crate::report::identify::IdentifyReport;
 use crate::report::summary::summary;
-use crate::simulation::{simulate, SimulateArgs};
+use crate::simulation::{simulate, ProfileArg, SimulateArgs};
 use crate::validation::{check, plot};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -36,7 +36,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     let csv = a.out_dir.join("seed_motor_steps.csv");
     let sim = SimulateArgs {
         motor: None,
-        profile: "steps".into(),
+        profile: ProfileArg::Steps,
         out: csv.clone(),
         effect: vec![],
         noise_omega: 0.5,
@@ -110,16 +110,16 @@ pub fn run(a: &DemoArgs) -> Result<()> {
 fn validation_set(a: &DemoArgs, base: &SimulateArgs, p: &ModelParams) -> Result<()> {
     println!("\n== validate the parameters identified with current on new experiments");
     let experiments = [
-        ("start_25V", "start", 25.0),
-        ("start_50V", "start", 50.0),
-        ("load_change", "load", 50.0),
-        ("voltage_reversal", "reversal", 50.0),
+        ("start_25V", ProfileArg::Start, 25.0),
+        ("start_50V", ProfileArg::Start, 50.0),
+        ("load_change", ProfileArg::Load, 50.0),
+        ("voltage_reversal", ProfileArg::Reversal, 50.0),
     ];
     let mut records = Vec::new();
     for (k, (name, profile, voltage)) in experiments.into_iter().enumerate() {
         let out = a.out_dir.join(format!("validation_{name}.csv"));
         let args = SimulateArgs {
-            profile: profile.into(),
+            profile,
             voltage,
             duration: None,
             out: out.clone(),

@@ -94,6 +94,7 @@ pub fn run_experiment<const N: usize>(
             link.send(&BoardMessage::Progress {
                 stage: JobStage::Experiment,
                 iteration: k as u32,
+                total: N as u32,
                 evaluations: 0,
                 best: 0.0,
             });

@@ -253,6 +253,7 @@ impl<'s, const N: usize> Service<'s, N> {
                     Stage::Refine => JobStage::Refine,
                 },
                 iteration: p.iteration,
+                total: p.iterations,
                 evaluations: p.evaluations,
                 best: p.best,
             });

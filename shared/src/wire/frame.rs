@@ -188,6 +188,7 @@ mod tests {
             BoardMessage::Progress {
                 stage: JobStage::Refine,
                 iteration: 3,
+                total: 100,
                 evaluations: 40,
                 best: 0.51,
             },

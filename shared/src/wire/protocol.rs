@@ -6,7 +6,7 @@ use crate::capacity::MAX_ESTIMATES;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 5;
+pub const PROTOCOL_VERSION: u16 = 6;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -238,8 +238,11 @@ pub enum BoardMessage {
     Progress {
         /// Stage.
         stage: JobStage,
-        /// Iteration within it.
+        /// Iteration within it (during [`JobStage::Experiment`], the sample index).
         iteration: u32,
+        /// Iterations the stage runs at most (during [`JobStage::Experiment`], the samples of
+        /// the experiment): the length of the host's progress bar.
+        total: u32,
         /// Evaluations so far.
         evaluations: u32,
         /// Best fitness so far.

@@ -21,7 +21,8 @@ mod verdict;
 use crate::csvio::OwnedRecord;
 use crate::fit::FitOptions;
 use crate::output::write_json;
-use anyhow::{anyhow, bail, Result};
+use anyhow::{bail, Result};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
 use data::Data;
 use motor_id_shared::model::effects::Effect;
@@ -46,15 +47,23 @@ pub struct DiagnoseArgs {
     pub repeats: Vec<String>,
     /// Leave these effects of the catalogue out of the search, comma-separated (e.g. to see
     /// what is left of the misfit without them).
-    #[arg(long, value_name = "EFFECT,...", value_delimiter = ',')]
-    pub without: Vec<String>,
+    #[arg(long, value_name = "EFFECT,...", value_delimiter = ',', value_parser = effect_name())]
+    pub without: Vec<Effect>,
     /// Write the JSON report here.
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write a PNG plot (measured vs baseline vs with-effect speed, residuals, misfit by
-    /// regime) here.
+    /// regime, and a zoom on the worst periods of each chirp- or sine-like held-out record)
+    /// here.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+}
+
+/// The effects of the catalogue by name, as clap parses them (the names are its possible
+/// values).
+fn effect_name() -> impl TypedValueParser<Value = Effect> {
+    PossibleValuesParser::new(Effect::ALL.map(|e| e.name()))
+        .map(|name| Effect::from_name(&name).expect("a possible value names an effect"))
 }
 
 /// Run `diagnose`.
@@ -80,20 +89,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     };
     // The repeats first: a file given by --repeats that cannot be read fails before the fits.
     let repeats = repeatability::Repeats::find(&data, &a.repeats)?;
-    let without = a
-        .without
-        .iter()
-        .map(|name| {
-            Effect::from_name(name).ok_or_else(|| {
-                let all: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
-                anyhow!(
-                    "--without: unknown effect {name} (one of {})",
-                    all.join(", ")
-                )
-            })
-        })
-        .collect::<Result<Vec<Effect>>>()?;
-    let found = search::search(&data, &a.fit, &without)?;
+    let found = search::search(&data, &a.fit, &a.without)?;
     let after = found.last();
     let repeats = repeats.report(&data, &after.fit.result.params)?;
     let rest = remainder::remainder(
