@@ -8,7 +8,8 @@
 //! `cargo run --release -p motor-id-tests --example blind_check -- [SEEDS] [RATES] [CASES]`
 //! e.g. `-- 8 2000,5000,10000 all` (the defaults); CASES is `all` or names joined by `,`
 //! (`null`, `static`, `asymmetric`, `deadtime`, `offset`, pairs as `static+offset`).
-//! One line per case on stderr, a summary table on stdout.
+//! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
+//! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`.
 
 use motor_id_tests::blind::{check, entry, label, SINGLES};
 use std::collections::BTreeSet;
@@ -40,7 +41,13 @@ fn main() {
             let (mut lo, mut hi) = (f64::MAX, 0f64);
             for seed in 1..=seeds {
                 let dir = tempfile::tempdir().expect("temporary directory");
-                let o = check(dir.path(), case, rate, seed);
+                // BLIND_KEEP=DIR keeps the records and reports (one folder per case).
+                let kept = std::env::var_os("BLIND_KEEP").map(|d| {
+                    let d = std::path::Path::new(&d).join(format!("{}-{rate}-{seed}", label(case)));
+                    std::fs::create_dir_all(&d).expect("BLIND_KEEP folder");
+                    d
+                });
+                let o = check(kept.as_deref().unwrap_or(dir.path()), case, rate, seed);
                 let ok = o.named == expected;
                 eprintln!(
                     "{} @ {rate} Hz seed {seed}: named {:?}{} unexplained {} noise x{:.2} ({:.1} s)",

@@ -9,6 +9,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
+use std::time::{Duration, Instant};
 
 /// Path of the `motor-id` binary, built once per test run in the same target directory and
 /// profile as the tests; `MOTOR_ID_BIN` names another one (a benchmark that must not see a
@@ -316,6 +317,59 @@ impl Qemu {
             stderr: rx,
         }
     }
+}
+
+impl Qemu {
+    /// The processor time QEMU has used so far (user and system, from
+    /// `/proc/PID/stat`): the emulated board's work, which a loaded machine slows down in
+    /// wall time but not in this. Test deadlines count in it, so that they follow the work
+    /// and not the machine's load.
+    pub fn cpu_time(&self) -> Duration {
+        let stat = std::fs::read_to_string(format!("/proc/{}/stat", self.child.id()))
+            .expect("QEMU's /proc/PID/stat (the tests run on Linux)");
+        // Fields after the command name in parentheses: state is field 3, utime 14, stime 15.
+        let rest = &stat[stat.rfind(')').expect("stat's command field") + 2..];
+        let fields: Vec<&str> = rest.split_whitespace().collect();
+        let ticks: u64 =
+            fields[11].parse::<u64>().expect("utime") + fields[12].parse::<u64>().expect("stime");
+        Duration::from_secs_f64(ticks as f64 / clock_ticks_per_second())
+    }
+
+    /// Wait while `pending` holds, until QEMU has spent `budget` of processor time (or ten
+    /// times that in wall time, should QEMU be stopped altogether); true when `pending`
+    /// ended first.
+    pub fn within_work(&self, budget: Duration, mut pending: impl FnMut() -> bool) -> bool {
+        let (cpu0, wall0) = (self.cpu_time(), Instant::now());
+        while pending() {
+            if self.cpu_time() - cpu0 > budget || wall0.elapsed() > 10 * budget {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// `motor-id board --port PTY --timeout T ARGS`: the board command against this QEMU,
+    /// with a reply timeout far above what the emulated board needs on a quiet machine
+    /// (the CLI's default 10 s is for a real board, which no host load slows down).
+    pub fn board_args<'a>(&'a self, args: &[&'a str]) -> Vec<&'a str> {
+        let mut all = vec!["board", "--port", self.pty.as_str(), "--timeout", "120"];
+        all.extend_from_slice(args);
+        all
+    }
+}
+
+/// `getconf CLK_TCK`: the unit of `/proc/PID/stat`'s times (100 on Linux's usual builds).
+fn clock_ticks_per_second() -> f64 {
+    static TCK: OnceLock<f64> = OnceLock::new();
+    *TCK.get_or_init(|| {
+        Command::new("getconf")
+            .arg("CLK_TCK")
+            .output()
+            .ok()
+            .and_then(|o| String::from_utf8(o.stdout).ok())
+            .and_then(|s| s.trim().parse().ok())
+            .unwrap_or(100.0)
+    })
 }
 
 impl Drop for Qemu {

@@ -355,3 +355,53 @@ fn a_scope_step_outside_the_trace_is_refused() {
     }
     assert!(!out.exists());
 }
+
+#[test]
+fn diagnose_warns_of_a_held_out_record_of_another_motor() {
+    // Trained on the seed motor, held out on a motor with three times its Kv: the baseline
+    // predicts the held-out record hundreds of times its noise, the training records to it.
+    let d = tempfile::tempdir().unwrap();
+    let (train, other) = (d.path().join("train.csv"), d.path().join("other.csv"));
+    let common = ["--profile", "steps", "--rate", "100", "--duration", "20"];
+    let common = [&common[..], &["--speed-only", "--noise-omega", "0.2"]].concat();
+    motor_id_tests::simulate(&train, &[&common[..], &["--seed", "1"]].concat());
+    let motor = ["--motor", "ra=3.412,la=0.0573,j=0.0424,b=0.00267,kv=0.48"];
+    motor_id_tests::simulate(
+        &other,
+        &[&common[..], &motor[..], &["--seed", "2"]].concat(),
+    );
+    let json = d.path().join("d.json");
+    let out = motor_id_tests::run(&[
+        "diagnose",
+        "--train",
+        s(&train),
+        "--holdout",
+        s(&other),
+        "--json",
+        s(&json),
+        "-q",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("other.csv is predicted to") && stderr.contains("same motor"),
+        "{stderr}"
+    );
+    let report = motor_id_tests::json(&json);
+    assert_eq!(
+        report["warnings"].as_array().map(Vec::len),
+        Some(1),
+        "{report}"
+    );
+    // A held-out record of the same motor draws no warning.
+    let same = d.path().join("same.csv");
+    motor_id_tests::simulate(&same, &[&common[..], &["--seed", "3"]].concat());
+    let out = motor_id_tests::run(&[
+        "diagnose",
+        "--train",
+        s(&train),
+        "--holdout",
+        s(&same),
+        "-q",
+    ]);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("warning"));
+}

@@ -8,12 +8,12 @@ use motor_id_shared::wire::protocol::{
 };
 use motor_id_tests::{board_record, json, run, run_err, run_ok, s, Qemu};
 use std::io::{Read, Write};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 #[test]
 fn hello_and_version() {
     let q = Qemu::start();
-    let out = run_ok(&["board", "--port", &q.pty, "hello"]);
+    let out = run_ok(&q.board_args(&["hello"]));
     assert!(
         out.contains(&format!("protocol version {PROTOCOL_VERSION}")),
         "{out}"
@@ -28,7 +28,7 @@ fn board_identify_is_bit_identical_to_host_identify() {
     for pipeline in ["default", "board"] {
         let board = dir.path().join(format!("board-{pipeline}.json"));
         let host = dir.path().join(format!("host-{pipeline}.json"));
-        let mut board_args = vec!["board", "--port", &q.pty, "--seed", "5"];
+        let mut board_args = q.board_args(&["--seed", "5"]);
         board_args.extend(["--json", s(&board), "-q", "identify", s(&csv)]);
         // The default pipeline is the default on both sides.
         if pipeline != "default" {
@@ -51,21 +51,12 @@ fn board_identify_is_bit_identical_to_host_identify() {
     }
     // The paper-faithful population does not fit the board's memory: a typed refusal, one
     // line, non-zero exit, and the board goes on answering.
-    let err = run_err(&[
-        "board",
-        "--port",
-        &q.pty,
-        "-q",
-        "identify",
-        s(&csv),
-        "--pipeline",
-        "paper",
-    ]);
+    let err = run_err(&q.board_args(&["-q", "identify", s(&csv), "--pipeline", "paper"]));
     assert!(
         err.contains(&Refusal::PipelineTooLarge.to_string()),
         "{err}"
     );
-    run_ok(&["board", "--port", &q.pty, "hello"]);
+    run_ok(&q.board_args(&["hello"]));
 }
 
 /// The QEMU build's plant is the seed paper's motor with Coulomb friction
@@ -92,20 +83,12 @@ fn first_power_up_commissions_and_the_host_commissions_again_after_clear() {
     let (boot, again) = (dir.path().join("boot.json"), dir.path().join("again.json"));
     // Power-up found no parameters and commissioned the plant by itself (the host waits
     // while the board is busy).
-    run_ok(&["board", "--port", &q.pty, "--json", s(&boot), "params"]);
+    run_ok(&q.board_args(&["--json", s(&boot), "params"]));
     assert_seed_motor(&json(&boot));
-    run_ok(&["board", "--port", &q.pty, "clear"]);
-    let out = run_ok(&["board", "--port", &q.pty, "params"]);
+    run_ok(&q.board_args(&["clear"]));
+    let out = run_ok(&q.board_args(&["params"]));
     assert!(out.contains("no parameters stored"), "{out}");
-    run_ok(&[
-        "board",
-        "--port",
-        &q.pty,
-        "--json",
-        s(&again),
-        "-q",
-        "commission",
-    ]);
+    run_ok(&q.board_args(&["--json", s(&again), "-q", "commission"]));
     let r = json(&again);
     assert_seed_motor(&r);
     assert_eq!(r["identifiability"]["rank"], 6, "{r}");
@@ -114,25 +97,28 @@ fn first_power_up_commissions_and_the_host_commissions_again_after_clear() {
         r["identifiability"]["parameters"]["tc"]["pinned"], true,
         "{r}"
     );
-    let stored = run_ok(&["board", "--port", &q.pty, "params"]);
+    let stored = run_ok(&q.board_args(&["params"]));
     assert!(stored.contains("rmse_omega"), "{stored}");
 }
 
-/// A raw framed connection, for what the CLI does not do on purpose.
-struct Raw {
+/// A raw framed connection, for what the CLI does not do on purpose. Its waits count in
+/// QEMU's processor time ([`Qemu::within_work`]).
+struct Raw<'q> {
+    qemu: &'q Qemu,
     port: Box<dyn serialport::SerialPort>,
     decoder: Decoder,
     /// Bytes read and not decoded yet (one read may bring several frames).
     unread: std::collections::VecDeque<u8>,
 }
 
-impl Raw {
-    fn open(pty: &str) -> Raw {
-        let port = serialport::new(pty, 115_200)
+impl Raw<'_> {
+    fn open(qemu: &Qemu) -> Raw<'_> {
+        let port = serialport::new(&qemu.pty, 115_200)
             .timeout(Duration::from_millis(20))
             .open()
             .unwrap();
         Raw {
+            qemu,
             port,
             decoder: Decoder::new(),
             unread: Default::default(),
@@ -146,27 +132,31 @@ impl Raw {
         let frame = encode(msg, &mut out).unwrap().to_vec();
         self.bytes(&frame);
     }
+    /// The next message, unless QEMU works `within` of processor time without one.
     fn receive(&mut self, within: Duration) -> Option<BoardMessage> {
-        let end = Instant::now() + within;
         let mut buf = [0u8; 64];
-        while Instant::now() < end {
+        let mut got = None;
+        let qemu = self.qemu;
+        qemu.within_work(within, || {
             while let Some(b) = self.unread.pop_front() {
                 if let Some(Ok(m)) = self.decoder.push::<BoardMessage>(b) {
-                    return Some(m);
+                    got = Some(m);
+                    return false;
                 }
             }
             if let Ok(n) = self.port.read(&mut buf) {
                 self.unread.extend(&buf[..n]);
             }
-        }
-        None
+            true
+        });
+        got
     }
     /// Hello, asked again while the board is busy (commissioning at power-up) or when no
     /// answer comes (bytes that arrive before the firmware enables its USART are lost, as on
     /// a board); the reply.
     fn hello(&mut self) -> Option<BoardMessage> {
-        let end = Instant::now() + Duration::from_secs(60);
-        while Instant::now() < end {
+        let (qemu, start) = (self.qemu, self.qemu.cpu_time());
+        while qemu.cpu_time() - start < Duration::from_secs(60) {
             self.send(&HostMessage::Hello {
                 version: PROTOCOL_VERSION,
             });
@@ -198,7 +188,7 @@ fn abort_mid_identification_and_the_board_answers_again() {
         .skip(1)
         .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
         .collect();
-    let mut raw = Raw::open(&q.pty);
+    let mut raw = Raw::open(&q);
     assert!(matches!(raw.hello(), Some(BoardMessage::Hello { .. })));
     raw.send(&HostMessage::IdentifyBegin {
         dt: 0.01,
@@ -250,7 +240,7 @@ fn abort_mid_identification_and_the_board_answers_again() {
 #[test]
 fn garbage_corrupted_and_dropped_bytes_are_survived() {
     let q = Qemu::start();
-    let mut raw = Raw::open(&q.pty);
+    let mut raw = Raw::open(&q);
     let first = raw.hello();
     assert!(
         matches!(first, Some(BoardMessage::Hello { .. })),

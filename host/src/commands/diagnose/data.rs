@@ -10,6 +10,10 @@ use motor_id_shared::fit::objective::{Cost, Objective};
 use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::{ModelParams, ParamId};
 
+/// How many times worse (each over its noise) than the training records a held-out record
+/// must be predicted before it is reported as likely of another set-up.
+pub const FOREIGN_RATIO: f32 = 20.0;
+
 /// One record's baseline residual and what the model says about its operating point.
 pub struct Trace {
     /// File name.
@@ -190,6 +194,29 @@ impl Data {
                     omega: w,
                     current,
                 });
+            }
+        }
+        Ok(out)
+    }
+
+    /// Held-out records the baseline predicts far worse than it fits the training records
+    /// (each RMSE over its own noise, the held-out one more than [`FOREIGN_RATIO`] times the
+    /// training one): a record of another motor, wiring or sensor scale, which no effect of
+    /// the catalogue should be asked to explain.
+    pub fn foreign_holdouts(&self, baseline: &Scored) -> Result<Vec<String>> {
+        let fit = &baseline.fit.result;
+        let train = fit.cost.rmse_omega / fit.sigma_omega.max(f32::MIN_POSITIVE);
+        let mut out = Vec::new();
+        for (k, r) in self.holdout.iter().enumerate() {
+            let (cost, sigma, _) = self.holdout_cost_of(&fit.params, &[k])?;
+            let held = cost.rmse_omega / sigma.max(f32::MIN_POSITIVE);
+            if held > FOREIGN_RATIO * train.max(1.0) {
+                out.push(format!(
+                    "held-out {} is predicted to {held:.0} times its noise while the training \
+                     records fit to {train:.1} times theirs: is it a record of the same motor, \
+                     wiring and sensor scale?",
+                    r.name()
+                ));
             }
         }
         Ok(out)

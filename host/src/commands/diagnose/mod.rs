@@ -100,7 +100,11 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         repeats.holdout_floor().map(|f| f.0),
     )?;
     let current_noise = data.holdout_current_noise()?;
-    let report = DiagnoseReport::new(&data, &found, repeats, rest, current_noise);
+    let warnings = data.foreign_holdouts(&found.baseline)?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    let report = DiagnoseReport::new(&data, &found, repeats, rest, current_noise, warnings);
     print!("{}", report.text());
     if let Some(path) = &a.json {
         write_json(path, &report)?;

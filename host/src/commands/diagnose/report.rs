@@ -31,6 +31,8 @@ pub struct DiagnoseReport {
     pub data: DataReport,
     /// Conclusions the data cannot support.
     pub cannot_support: Vec<String>,
+    /// Inputs that look wrong (a held-out record of another set-up).
+    pub warnings: Vec<String>,
     /// Regimes the held-out records visit and the training records do not.
     pub coverage_gaps: Vec<CoverageGap>,
     /// How far repeat runs of one experiment differ.
@@ -215,6 +217,7 @@ impl DiagnoseReport {
         repeatability: Repeatability,
         remainder: Option<Remainder>,
         current_noise: Option<f32>,
+        warnings: Vec<String>,
     ) -> DiagnoseReport {
         let baseline = &search.baseline;
         let holdout_noise = search.holdout.noise;
@@ -304,6 +307,7 @@ impl DiagnoseReport {
                 holdout: data.holdout.iter().map(|r| r.name()).collect(),
             },
             cannot_support: data.cannot_support(baseline, chosen),
+            warnings,
             coverage_gaps: coverage::gaps(&data.train, &data.holdout),
             repeatability,
         }
@@ -393,6 +397,7 @@ impl DiagnoseReport {
         for c in &self.cannot_support {
             s += &format!("note: {c}\n");
         }
+
         s
     }
 }
