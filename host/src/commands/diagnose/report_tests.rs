@@ -84,6 +84,7 @@ fn report(second: Option<&'static str>) -> DiagnoseReport {
             holdout: vec!["b.csv".into()],
         },
         cannot_support: vec!["something".into()],
+        warnings: Vec::new(),
         coverage_gaps: vec![],
         repeatability: Repeatability {
             groups: vec![],
