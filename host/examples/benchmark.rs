@@ -10,81 +10,22 @@
 //! `cargo run --release -p motor-id --example benchmark -- [MOTORS] [--skip-paper]`
 
 use motor_id_shared::fit::ffo::{FfoConfig, Soil};
-use motor_id_shared::fit::identify::{identify, IdentifyConfig};
+use motor_id_shared::fit::identify::{identify_escalating, IdentifyConfig};
 use motor_id_shared::fit::objective::Objective;
 use motor_id_shared::fit::space::ProblemSpec;
-use motor_id_shared::model::params::ModelParams;
-use motor_id_shared::model::profile::{settling_duration, Experiment, Profile};
-use motor_id_shared::model::synth::{synthesize, Buffers, Noise};
+use motor_id_shared::model::synth::TableOneCase;
 use motor_id_shared::param_id::ParamId;
-use motor_id_shared::rng;
 use motor_id_shared::Record;
 use std::ops::ControlFlow;
 use std::time::Instant;
 
 const SAMPLES: usize = 2000;
 
-struct Case {
-    truth: ModelParams,
-    dt: f32,
-    v: Vec<f32>,
-    omega: Vec<f32>,
-    current: Vec<f32>,
-}
-
-fn random_motor(seed: u64) -> ModelParams {
-    let mut r = rng::seeded(seed);
-    let mut p = ModelParams::SEED_MOTOR;
-    for id in ParamId::MOTOR {
-        let (lo, hi) = id.default_bounds();
-        p.set(id, lo * (hi / lo).powf(rng::unit(&mut r)));
-    }
-    p
-}
+/// The benchmark's cases (`TableOneCase`: log-uniform in Table 1, steps, 1 % noise).
+type Case = TableOneCase;
 
 fn make_case(seed: u64) -> Case {
-    let truth = random_motor(seed);
-    let duration = settling_duration(&truth, Profile::Steps);
-    let dt = duration / SAMPLES as f32;
-    let exp = Experiment {
-        profile: Profile::Steps,
-        voltage: 50.0,
-        duration,
-        load_torque: 0.0,
-    };
-    let (mut v, mut tl, mut omega, mut current) = (
-        vec![0.0; SAMPLES],
-        vec![0.0; SAMPLES],
-        vec![0.0; SAMPLES],
-        vec![0.0; SAMPLES],
-    );
-    // Noise-free first, to scale the noise to 1 % of the peak signals.
-    let b = Buffers {
-        v: &mut v,
-        tl: &mut tl,
-        omega: &mut omega,
-        current: &mut current,
-    };
-    synthesize(&truth, &exp, dt, Noise::default(), 0, None, b).unwrap();
-    let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, y| m.max(y.abs()));
-    let noise = Noise {
-        omega: 0.01 * peak(&omega),
-        current: 0.01 * peak(&current),
-    };
-    let b = Buffers {
-        v: &mut v,
-        tl: &mut tl,
-        omega: &mut omega,
-        current: &mut current,
-    };
-    synthesize(&truth, &exp, dt, noise, seed ^ 0x5eed, None, b).unwrap();
-    Case {
-        truth,
-        dt,
-        v,
-        omega,
-        current,
-    }
+    TableOneCase::new(seed, SAMPLES)
 }
 
 struct Outcome {
@@ -97,6 +38,8 @@ struct Outcome {
     /// standard deviations of the truth.
     pinned: usize,
     pinned_within_3_std: usize,
+    /// Wider searches run after the pipeline's own (its escalation).
+    widened: u32,
 }
 
 fn run(case: &Case, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
@@ -111,7 +54,7 @@ fn run(case: &Case, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
     let objective = Objective::new(&rec).unwrap();
     let floor = objective.cost(&case.truth).unwrap();
     let start = Instant::now();
-    let id = identify(&rec, &ProblemSpec::default(), cfg, |_| {
+    let id = identify_escalating(&rec, &ProblemSpec::default(), cfg, None, |_| {
         ControlFlow::Continue(())
     })
     .unwrap();
@@ -136,6 +79,20 @@ fn run(case: &Case, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
         .iter()
         .filter(|(c, sd)| (c.value - case.truth.get(c.id)).abs() <= 3.0 * sd)
         .count();
+    if std::env::var_os("BENCH_VERBOSE").is_some() {
+        for (c, sd) in &pinned {
+            let off = (c.value - case.truth.get(c.id)) / sd;
+            if off.abs() > 3.0 {
+                eprintln!(
+                    "  {:?} {} vs truth {} ({off:+.1} std of {sd}), current {with_current}, rank {}",
+                    c.id,
+                    c.value,
+                    case.truth.get(c.id),
+                    id.identifiability.rank
+                );
+            }
+        }
+    }
     Outcome {
         pinned: pinned.len(),
         pinned_within_3_std,
@@ -144,6 +101,7 @@ fn run(case: &Case, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
         evaluations: id.evaluations,
         seconds,
         param_error,
+        widened: id.widened,
     }
 }
 
@@ -166,15 +124,15 @@ fn main() {
     let skip_paper = args.iter().any(|a| a == "--skip-paper");
     let cases: Vec<Case> = (1..=motors).map(make_case).collect();
     println!("{motors} motors log-uniform in seed Table 1, steps profile, {SAMPLES} samples, 1 % noise\n");
-    println!("| pipeline | data | success (RMSE <= 1.01 floor) | median evaluations to floor | median evaluations total | all params within 1 % | all 5 pinned | pinned params within 3 reported std | median host time |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| pipeline | data | success (RMSE <= 1.01 floor) | median evaluations to floor | median evaluations total | all params within 1 % | all 5 pinned | pinned params within 3 reported std | motors whose search was widened | median host time |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut pipelines = vec![
         (
-            "default: start + FFO 2x8, 8 it. + LM",
+            "default: start + LM; FFO 2x8, 8 it. + LM above noise; then wider (seed population)",
             IdentifyConfig::default_pipeline(1),
         ),
         (
-            "board: start + LM, FFO only above noise",
+            "board: start + LM; FFO 2x8, 8 it. + LM above noise; then 5x and 25x longer",
             IdentifyConfig::board(1),
         ),
     ];
@@ -225,12 +183,13 @@ fn main() {
             );
             let total = median(outcomes.iter().map(|o| o.evaluations as f64).collect());
             let secs = median(outcomes.iter().map(|o| o.seconds).collect());
+            let widened = outcomes.iter().filter(|o| o.widened > 0).count();
             let reached = outcomes
                 .iter()
                 .filter(|o| o.evals_to_floor.is_some())
                 .count();
             println!(
-                "| {name} | {} | {:.1} % ({}/{}) | {} ({reached} reached) | {total:.0} | {} | {:.1} % | {:.1} % of {pinned} | {:.1} ms |",
+                "| {name} | {} | {:.1} % ({}/{}) | {} ({reached} reached) | {total:.0} | {} | {:.1} % | {:.1} % of {pinned} | {widened} | {:.1} ms |",
                 if with_current { "speed + current" } else { "speed only" },
                 100.0 * ok / n,
                 ok as usize,

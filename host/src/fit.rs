@@ -3,12 +3,12 @@
 
 use crate::csvio::OwnedRecord;
 use crate::progress::FitProgress;
-use crate::report::identify::FitQuality;
 use crate::spec::{parse_bounds, parse_fix, problem, BoundsSpec, FixSpec};
 use anyhow::{anyhow, Result};
 use clap::Args;
-use motor_id_shared::fit::ffo::{FfoConfig, Soil};
-use motor_id_shared::fit::identify::{identify_from, Identification, IdentifyConfig, Pipeline};
+use motor_id_shared::fit::identify::{
+    identify_escalating, Escalation, Identification, IdentifyConfig, Pipeline,
+};
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::wire::protocol::PipelineName;
 use motor_id_shared::ModelParams;
@@ -80,72 +80,40 @@ pub struct Fit {
     pub widened: u32,
 }
 
-/// The wider searches [`fit`] escalates to, in order: an FFO of the seed's population for 20
-/// iterations (about 2,000 evaluations) and then the seed's whole FFO (40,100), each with
-/// the soil step towards the best and followed by least squares from its best members.
-fn widened_searches(seed: u64) -> [IdentifyConfig; 2] {
-    let towards = |iterations| FfoConfig {
-        iterations,
-        soil: Soil::TowardsBest,
-        ..FfoConfig::SEED
-    };
-    let wide = |iterations| IdentifyConfig {
-        ffo: towards(iterations),
-        ..IdentifyConfig::default_pipeline(seed)
-    };
-    [wide(20), wide(FfoConfig::SEED.iterations)]
-}
-
-/// Identify from loaded records with the problem given on the command line. With the
-/// default pipeline, a fit that stays above its noise floor (the rule of `fit_quality`)
-/// is not yet blamed on the model: the search is widened ([`widened_searches`]) until a fit
-/// reaches the floor, or a wider search finds no fit better by 1 % (it agrees: the misfit is
-/// the model's), or the widest has run; the best fit is kept, and `widened` and the
+/// Identify from loaded records with the problem given on the command line, with the
+/// pipeline's escalation: a fit that stays above its noise floor is not yet blamed on the
+/// model, the search is widened first (`identify_escalating`); `widened` and the
 /// evaluations count every search.
 pub fn fit(records: &[OwnedRecord], opts: &FitOptions, pipeline: Pipeline) -> Result<Fit> {
     let spec = problem(&opts.bounds, &opts.fix)?;
-    let mut best = run_fit(records, opts, &spec, &pipeline.config(opts.seed), None)?;
-    if pipeline != Pipeline::Default {
-        return Ok(best);
-    }
-    let mut evaluations = best.result.evaluations;
-    for (k, cfg) in widened_searches(opts.seed).iter().enumerate() {
-        if FitQuality::of(&best.result).model_adequate {
-            break;
-        }
-        let wider = run_fit(records, opts, &spec, cfg, None)?;
-        evaluations += wider.result.evaluations;
-        let before = best.result.cost.fitness();
-        let gained = wider.result.cost.fitness() < before;
-        if gained {
-            best = wider;
-        }
-        best.widened = k as u32 + 1;
-        // A wider search that finds no better fit (within 1 %) agrees with the pipeline: the
-        // misfit is the model's, and a still wider one would only cost time.
-        if best.result.cost.fitness() > 0.99 * before {
-            break;
-        }
-    }
-    best.result.evaluations = evaluations;
-    Ok(best)
+    run_fit(records, opts, &spec, &pipeline.config(opts.seed), None)
 }
 
-/// Identify `spec` from loaded records with the default pipeline, starting from `initial`
-/// when given.
-pub fn fit_from(
-    records: &[OwnedRecord],
-    opts: &FitOptions,
-    spec: &ProblemSpec,
-    initial: Option<&ModelParams>,
-) -> Result<Fit> {
+/// Identify `spec` from loaded records with the default pipeline and its escalation.
+pub fn fit_spec(records: &[OwnedRecord], opts: &FitOptions, spec: &ProblemSpec) -> Result<Fit> {
     run_fit(
         records,
         opts,
         spec,
         &IdentifyConfig::default_pipeline(opts.seed),
-        initial,
+        None,
     )
+}
+
+/// Identify `spec` from loaded records with the default pipeline from `initial`, without
+/// its escalation: for the diagnosis' fits of an effect added to a model fitted already
+/// (whose misfit the diagnosis judges, not a stuck search's).
+pub fn fit_from(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    initial: &ModelParams,
+) -> Result<Fit> {
+    let cfg = IdentifyConfig {
+        escalation: Escalation::None,
+        ..IdentifyConfig::default_pipeline(opts.seed)
+    };
+    run_fit(records, opts, spec, &cfg, Some(initial))
 }
 
 /// Refit `spec` by least squares from `start` alone, without a global search: for a start
@@ -177,7 +145,7 @@ fn run_fit(
     let with_current = !opts.speed_only && records.iter().all(|r| r.current.is_some());
     let borrowed = OwnedRecord::as_records(records, with_current);
     let bar = FitProgress::new(opts.quiet);
-    let result = identify_from(&borrowed, &spec, cfg, initial, |p| {
+    let result = identify_escalating(&borrowed, &spec, cfg, initial, |p| {
         bar.update(p);
         ControlFlow::Continue(())
     });
@@ -185,8 +153,8 @@ fn run_fit(
     let result = result.map_err(|e| anyhow!("identification failed: {e}"))?;
     Ok(Fit {
         spec,
+        widened: result.widened,
         result,
         with_current,
-        widened: 0,
     })
 }

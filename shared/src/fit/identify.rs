@@ -2,10 +2,11 @@
 //! identifiability analysis (`docs/ARCHITECTURE.md`, data flow).
 
 use crate::error::Error;
-use crate::fit::ffo::{Ffo, FfoConfig};
+use crate::fit::ffo::{Ffo, FfoConfig, Soil};
 use crate::fit::identifiability::{analyse, Identifiability};
 use crate::fit::initial::start;
 use crate::fit::objective::{Cost, Objective};
+use crate::fit::profile;
 use crate::fit::refine::{levenberg_marquardt, LmConfig};
 use crate::fit::space::{ProblemSpec, Space};
 use crate::model::params::ModelParams;
@@ -74,6 +75,25 @@ pub struct IdentifyConfig {
     pub equation_error_start: bool,
     /// When the FFO runs.
     pub search: SearchWhen,
+    /// The wider searches a fit that stays above the noise floor escalates to
+    /// ([`identify_escalating`]).
+    pub escalation: Escalation,
+}
+
+/// The wider searches of [`identify_escalating`], for a fit that stays above the noise
+/// floor: a stuck search is not yet a model that misses something.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Escalation {
+    /// None: the fit is final.
+    None,
+    /// Within a board's memory (the short FFO's population): the short FFO run 5 and then
+    /// 25 times as long (about 1,000 and 3,400 evaluations), each with other random
+    /// numbers, then least squares from its best members.
+    Board,
+    /// The host's: an FFO of the seed's population for 20 iterations (about 2,000
+    /// evaluations), then the seed's whole FFO (40,100), both with the soil step towards
+    /// the best, then least squares from their best members.
+    Host,
 }
 
 /// When [`identify_from`] runs its global search (the FFO).
@@ -100,7 +120,8 @@ impl IdentifyConfig {
             seed,
             restarts: 3,
             equation_error_start: true,
-            search: SearchWhen::Always,
+            search: SearchWhen::AboveFloor,
+            escalation: Escalation::Host,
         }
     }
 
@@ -108,7 +129,7 @@ impl IdentifyConfig {
     /// only runs when refining the equation-error start does not reach the noise floor.
     pub fn board(seed: u64) -> Self {
         IdentifyConfig {
-            search: SearchWhen::AboveFloor,
+            escalation: Escalation::Board,
             ..Self::default_pipeline(seed)
         }
     }
@@ -117,8 +138,48 @@ impl IdentifyConfig {
     pub fn local(seed: u64) -> Self {
         IdentifyConfig {
             search: SearchWhen::Never,
+            escalation: Escalation::None,
             ..Self::default_pipeline(seed)
         }
+    }
+
+    /// The wider searches of its [`Escalation`], in order.
+    pub fn wider(&self) -> heapless::Vec<IdentifyConfig, 2> {
+        let with = |ffo: FfoConfig, seed: u64| IdentifyConfig {
+            ffo,
+            search: SearchWhen::Always,
+            escalation: Escalation::None,
+            seed,
+            ..*self
+        };
+        let longer = |iterations: u32| FfoConfig {
+            iterations,
+            ..self.ffo
+        };
+        let seed_towards = |iterations: u32| FfoConfig {
+            iterations,
+            soil: Soil::TowardsBest,
+            ..FfoConfig::SEED
+        };
+        let mut out = heapless::Vec::new();
+        let steps = match self.escalation {
+            Escalation::None => [None, None],
+            Escalation::Board => [
+                Some(longer(5 * self.ffo.iterations)),
+                Some(longer(25 * self.ffo.iterations)),
+            ],
+            Escalation::Host => [
+                Some(seed_towards(20)),
+                Some(seed_towards(FfoConfig::SEED.iterations)),
+            ],
+        };
+        for (k, ffo) in steps.into_iter().enumerate() {
+            if let Some(ffo) = ffo {
+                // Other random numbers than the pipeline's own search.
+                let _ = out.push(with(ffo, self.seed.wrapping_add(k as u64 + 1)));
+            }
+        }
+        out
     }
 
     /// The seed's workflow: FFO with the seed's settings (40,100 evaluations) in linear
@@ -132,6 +193,7 @@ impl IdentifyConfig {
             restarts: 0,
             equation_error_start: false,
             search: SearchWhen::Always,
+            escalation: Escalation::None,
         }
     }
 }
@@ -191,6 +253,8 @@ pub struct Identification {
     pub sigma_current: Option<f32>,
     /// False when the caller stopped it early (the result is the best so far).
     pub completed: bool,
+    /// Wider searches run after the pipeline's own ([`identify_escalating`]).
+    pub widened: u32,
 }
 
 fn push_trace(trace: &mut heapless::Vec<TracePoint, TRACE_CAPACITY>, point: TracePoint) {
@@ -272,6 +336,19 @@ pub fn identify_from(
     }
     let (u, cost) = run.best.ok_or(Error::NoFiniteCandidate)?;
     let identifiability = analyse(&objective, &space, &u[..dim], &cost)?;
+    let identifiability = match &cfg.refine {
+        Some(lm) => profile::widen(
+            identifiability,
+            &objective,
+            spec,
+            &space,
+            cfg.log_scale,
+            &space.params(&u[..dim]),
+            &cost,
+            lm,
+        ),
+        None => identifiability,
+    };
     Ok(Identification {
         params: space.params(&u[..dim]),
         cost,
@@ -282,7 +359,60 @@ pub fn identify_from(
         sigma_omega: objective.sigma_omega(),
         sigma_current: objective.sigma_current(),
         completed: run.completed,
+        widened: 0,
     })
+}
+
+/// A fit this many times better than the one before a wider search counts as a gain; less,
+/// and the wider search agrees that the misfit is the model's.
+const WIDER_GAIN: f32 = 0.99;
+
+/// [`identify_from`] with `cfg`, then, while the fit stays above the noise floor
+/// ([`NOISE_FLOOR_FACTOR`] times the measured noise), the wider searches of its
+/// [`Escalation`] ([`IdentifyConfig::wider`]) in turn, each from the same start: until a fit
+/// reaches the floor, or a wider search finds no fit better by 1 % (it agrees with the
+/// search before it: the misfit is the model's, and a still wider one would only cost
+/// time), or the widest has run. The best fit is kept; `evaluations` counts every search
+/// and `widened` how many wider ones ran. A stuck search is thus not reported as a model
+/// that misses something.
+pub fn identify_escalating(
+    records: &[Record],
+    spec: &ProblemSpec,
+    cfg: &IdentifyConfig,
+    initial: Option<&ModelParams>,
+    mut progress: impl FnMut(&Progress) -> ControlFlow<()>,
+) -> Result<Identification, Error> {
+    let mut best = identify_from(records, spec, cfg, initial, &mut progress)?;
+    let mut evaluations = best.evaluations;
+    for (k, wider) in cfg.wider().iter().enumerate() {
+        let floor = NOISE_FLOOR_FACTOR * best.sigma_omega;
+        if !best.completed || best.cost.fitness() <= floor {
+            break;
+        }
+        let before = best.cost.fitness();
+        let offset = evaluations;
+        let next = identify_from(records, spec, wider, initial, |p: &Progress| {
+            progress(&Progress {
+                evaluations: offset + p.evaluations,
+                ..*p
+            })
+        })?;
+        evaluations += next.evaluations;
+        let completed = next.completed;
+        if next.cost.fitness() < before {
+            best = next;
+            for point in best.trace.iter_mut() {
+                point.evaluations += offset;
+            }
+        }
+        best.widened = k as u32 + 1;
+        best.completed = completed;
+        if best.cost.fitness() > WIDER_GAIN * before {
+            break;
+        }
+    }
+    best.evaluations = evaluations;
+    Ok(best)
 }
 
 /// State of one identification run: the best point so far, the trace and the counters.

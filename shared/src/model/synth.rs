@@ -66,3 +66,76 @@ pub fn synthesize(
     }
     Ok(())
 }
+
+/// A benchmark case: a motor drawn log-uniformly from the seed's Table 1 box (seed `seed`),
+/// a `steps` experiment of `samples` samples lasting five slowest time constants per step,
+/// white noise of 1 % of the peak speed and current. Shared by the benchmark
+/// (`host/examples/benchmark.rs`) and the tests of the reported uncertainty.
+#[cfg(any(test, feature = "std"))]
+pub struct TableOneCase {
+    /// The motor.
+    pub truth: ModelParams,
+    /// Sample step [s].
+    pub dt: f32,
+    /// Armature voltage [V].
+    pub v: std::vec::Vec<f32>,
+    /// Speed reading [rad/s].
+    pub omega: std::vec::Vec<f32>,
+    /// Current reading [A].
+    pub current: std::vec::Vec<f32>,
+}
+
+#[cfg(any(test, feature = "std"))]
+impl TableOneCase {
+    /// The case of `seed` with `samples` samples.
+    pub fn new(seed: u64, samples: usize) -> TableOneCase {
+        use crate::model::profile::{settling_duration, Profile};
+        use crate::param_id::ParamId;
+        let mut r = rng::seeded(seed);
+        let mut truth = ModelParams::SEED_MOTOR;
+        for id in ParamId::MOTOR {
+            let (lo, hi) = id.default_bounds();
+            truth.set(id, lo * (hi / lo).powf(rng::unit(&mut r)));
+        }
+        let duration = settling_duration(&truth, Profile::Steps);
+        let dt = duration / samples as f32;
+        let exp = Experiment {
+            profile: Profile::Steps,
+            voltage: 50.0,
+            duration,
+            load_torque: 0.0,
+        };
+        let (mut v, mut tl, mut omega, mut current) = (
+            vec![0.0; samples],
+            vec![0.0; samples],
+            vec![0.0; samples],
+            vec![0.0; samples],
+        );
+        // Noise-free first, to scale the noise to 1 % of the peak signals.
+        let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, y| m.max(y.abs()));
+        let mut noise = Noise::default();
+        for (noise_seed, scale) in [(0, false), (seed ^ 0x5eed, true)] {
+            if scale {
+                noise = Noise {
+                    omega: 0.01 * peak(&omega),
+                    current: 0.01 * peak(&current),
+                };
+            }
+            let b = Buffers {
+                v: &mut v,
+                tl: &mut tl,
+                omega: &mut omega,
+                current: &mut current,
+            };
+            synthesize(&truth, &exp, dt, noise, noise_seed, None, b)
+                .expect("Table 1 motors simulate");
+        }
+        TableOneCase {
+            truth,
+            dt,
+            v,
+            omega,
+            current,
+        }
+    }
+}

@@ -11,7 +11,7 @@ use super::data::{Data, Scored};
 use super::regimes::{self, WhereReport};
 use super::spectrum::{order_peak, OrderPeak};
 use super::verdict::{significant, Holdout};
-use crate::fit::{fit_from, refit_from, Fit, FitOptions};
+use crate::fit::{fit_from, fit_spec, refit_from, Fit, FitOptions};
 use anyhow::{anyhow, Result};
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
@@ -157,7 +157,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     };
     let spec = crate::spec::problem(&opts.bounds, &opts.fix)?;
     say("fitting the baseline model on the training records".into());
-    let baseline = data.score(fit_from(&data.train, &quiet, &spec, None)?)?;
+    let baseline = data.score(fit_spec(&data.train, &quiet, &spec)?)?;
     let base_params = baseline.fit.result.params;
     let holdout = Holdout {
         noise: data.holdout_noise()?,
@@ -427,7 +427,7 @@ fn fit_effect(
             alone.free[id.index()] = false;
         }
     }
-    let first = fit_from(&data.train, opts, &alone, Some(&start))?;
+    let first = fit_from(&data.train, opts, &alone, &start)?;
     refit_from(&data.train, opts, spec, &first.result.params)
 }
 
