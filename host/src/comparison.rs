@@ -25,9 +25,9 @@ pub enum Optimiser {
     /// The seed's FFO as the paper describes it (soil step away from the best), cut to the
     /// budget.
     PaperFfo,
-    /// The default pipeline (equation-error start, short FFO, least squares).
+    /// The default pipeline (start and least squares, a short FFO above the noise).
     Default,
-    /// The board's pipeline (start and least squares, FFO only above the noise).
+    /// The board's pipeline (the same within a board's memory).
     Board,
     /// Nelder-Mead simplex (argmin), from the centre of the box.
     NelderMead,

@@ -38,9 +38,10 @@ pub struct FitOptions {
 /// The pipelines by name (`motor_id_shared::fit::identify::Pipeline`).
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PipelineArg {
-    /// Equation-error start, short FFO, least squares.
+    /// Equation-error start and least squares; a short FFO above the noise floor, then
+    /// wider ones up to the seed's.
     Default,
-    /// Start and least squares; FFO only above the noise floor (the board's).
+    /// The same within a board's memory (its escalation: the short FFO run longer).
     Board,
     /// The seed's FFO alone.
     Paper,

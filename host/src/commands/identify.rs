@@ -20,9 +20,9 @@ pub struct IdentifyArgs {
     pub files: Vec<PathBuf>,
     #[command(flatten)]
     pub fit: FitOptions,
-    /// Pipeline: `default` (equation-error start, short FFO, least squares), `board` (what
-    /// a drive board runs: start and least squares, FFO only when that stays above the
-    /// noise floor) or `paper` (the seed's FFO alone).
+    /// Pipeline: `default` (equation-error start and least squares; a short FFO when that
+    /// stays above the noise floor, then wider searches up to the seed's FFO), `board` (what
+    /// a drive board runs: the same within its memory) or `paper` (the seed's FFO alone).
     #[arg(long, value_enum, default_value_t = PipelineArg::Default)]
     pub pipeline: PipelineArg,
     /// Paper-faithful mode, short for `--pipeline paper`: the seed's FFO (k=4, n=25,

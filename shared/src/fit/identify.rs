@@ -26,9 +26,10 @@ const NOISE_FLOOR_FACTOR: f32 = 1.05;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Pipeline {
-    /// [`IdentifyConfig::default_pipeline`]: start, short FFO, least squares.
+    /// [`IdentifyConfig::default_pipeline`]: start and least squares, a short FFO above the
+    /// noise floor, escalating to the seed's FFO.
     Default,
-    /// [`IdentifyConfig::board`]: start and least squares, FFO only above the noise floor
+    /// [`IdentifyConfig::board`]: the same within a board's memory
     /// (what a board runs when it commissions itself).
     Board,
     /// [`IdentifyConfig::paper_faithful`]: the seed's FFO alone.
@@ -99,11 +100,11 @@ pub enum Escalation {
 /// When [`identify_from`] runs its global search (the FFO).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SearchWhen {
-    /// Always, seeded with the start (the host's default pipeline: the noise floor is an
-    /// estimate, so it searches anyway).
+    /// Always, seeded with the start (the paper's FFO, and the wider searches of an
+    /// escalation).
     Always,
-    /// Only when refining the start first does not reach the measured noise floor (saves
-    /// most evaluations on a board).
+    /// Only when refining the start first does not reach the measured noise floor (both
+    /// pipelines: saves most evaluations, and a fit left above the floor escalates).
     AboveFloor,
     /// Never: least squares from the start only (a refit from a start known to lie in the
     /// optimum's basin, e.g. a model refitted after one effect was taken out of it).
@@ -111,7 +112,8 @@ pub enum SearchWhen {
 }
 
 impl IdentifyConfig {
-    /// The default pipeline: a short FFO in log scale, then least squares.
+    /// The default pipeline: the equation-error start refined by least squares; above the
+    /// noise floor a short FFO in log scale, then least squares; then the host's escalation.
     pub fn default_pipeline(seed: u64) -> Self {
         IdentifyConfig {
             ffo: FfoConfig::QUICK,

@@ -105,9 +105,10 @@ impl<'a> Record<'a> {
     /// zero (a record that starts indistinguishable from rest starts at rest). Current: the
     /// mechanical equilibrium `Kv i = B w + tc sign(w) + kq w |w| + tl` (seed Eq. 4 with
     /// dw/dt = 0 and the friction effects), exact at rest and in steady state, unless the
-    /// current is fitted (`sigma_current` given) and its first reading differs from that by
-    /// more than three `sigma_current`. (A noisy first reading taken as the state would
-    /// persist for a time constant: La/Ra reaches seconds in the seed's Table 1 box.)
+    /// current is fitted (`sigma_current` given) and its first reading, less the sensor's
+    /// offset `io`, differs from that by more than three `sigma_current`. (A noisy first
+    /// reading taken as the state would persist for a time constant: La/Ra reaches seconds
+    /// in the seed's Table 1 box; so would an offset taken for a current.)
     pub fn initial_state(
         &self,
         p: &ModelParams,
@@ -122,8 +123,11 @@ impl<'a> Record<'a> {
             + p.get(ParamId::Kq) * omega * omega.abs();
         let equilibrium =
             (p.get(ParamId::B) * omega + friction + self.load_at(0)) / p.get(ParamId::Kv);
-        let current = match (self.current, sigma_current) {
-            (Some(c), Some(sc)) if (c[0] - equilibrium).abs() > 3.0 * sc => c[0],
+        // The first reading less the current sensor's offset (`current_offset`): the
+        // reading of a shaft at rest is the offset, not a current.
+        let first = self.current.map(|c| c[0] - p.get(ParamId::Io));
+        let current = match (first, sigma_current) {
+            (Some(c0), Some(sc)) if (c0 - equilibrium).abs() > 3.0 * sc => c0,
             _ => equilibrium,
         };
         InitialState { current, omega }
@@ -372,6 +376,28 @@ mod tests {
 
     extern crate std;
     use std::vec::Vec;
+
+    #[test]
+    fn a_current_sensors_offset_is_not_taken_for_an_initial_current() {
+        // At rest, 12 V applied, the sensor reading its 0.35 A offset (plus noise): the
+        // state starts at the equilibrium (no current), not at the offset.
+        let v = [12.0f32; 4];
+        let omega = [0.0f32; 4];
+        let current = [0.33f32, 0.79, 1.2, 1.6];
+        let r = Record {
+            dt: 5e-4,
+            v: &v,
+            omega: &omega,
+            current: Some(&current),
+            load: None,
+            coast_from: None,
+        };
+        let p = ModelParams::SEED_MOTOR.with(ParamId::Io, 0.35);
+        assert_eq!(r.initial_state(&p, 0.5, Some(0.05)).current, 0.0);
+        // Without the offset in the model, the reading is 6.6 sigma from rest: a current.
+        let q = ModelParams::SEED_MOTOR;
+        assert_eq!(r.initial_state(&q, 0.5, Some(0.05)).current, 0.33);
+    }
 
     const DT: f64 = 5e-4;
 

@@ -67,9 +67,9 @@ pub enum HostMessage {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PipelineName {
-    /// Equation-error start, short FFO, least squares.
+    /// Start and least squares, a short FFO above the noise floor, the host's escalation.
     Default,
-    /// Start and least squares, the FFO only above the noise floor (commissioning's).
+    /// The same within a board's memory (commissioning's).
     Board,
     /// The seed paper's FFO alone.
     Paper,
