@@ -264,7 +264,7 @@ mod tests {
 
     #[test]
     fn every_target_has_a_seed_corpus() {
-        for target in ["frame", "service", "csv"] {
+        for target in ["frame", "service", "csv", "spec"] {
             assert!(!corpus(target).is_empty(), "{target}");
         }
     }
