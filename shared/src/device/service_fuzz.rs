@@ -36,10 +36,11 @@ const CAPACITY: usize = 64;
 /// Cases in the default run (each a session of up to a few dozen requests).
 const CASES: u32 = 256;
 
-/// Link polls plus watchdog feeds that one request may take: far above any job's (the
-/// default pipeline's FFO and refinement on a record of [`CAPACITY`], or commissioning's
-/// wait for rest, experiment and fit), so that only a runaway loop reaches it.
-const STEP_BOUND: u32 = 100_000;
+/// Link polls plus watchdog feeds that one request may take. A job on a record of
+/// [`CAPACITY`] takes about 400 (one of each per optimiser iteration, one feed per sample of
+/// commissioning), commissioning's wait for the motor to come to rest up to 2,048 more: only
+/// a runaway loop reaches this.
+const STEP_BOUND: u32 = 20_000;
 
 /// Step of the records uploaded [s].
 const DT: f32 = 0.01;
