@@ -207,9 +207,11 @@ fn read_record(path: &Path) -> Result<OwnedRecord> {
             let text = rec
                 .get(c)
                 .ok_or_else(|| anyhow!("line {line}: column {name} is missing"))?;
-            let x: f64 = text
-                .parse()
-                .map_err(|_| anyhow!("line {line}: {name} = '{text}' is not a number"))?;
+            let x: f64 = text.parse().map_err(|_| {
+                // Escaped: a quoted field may hold a line break, and the error is one line.
+                let text = text.escape_debug();
+                anyhow!("line {line}: {name} = '{text}' is not a number")
+            })?;
             if !x.is_finite() || !(x as f32).is_finite() {
                 bail!("line {line}: {name} = '{text}' is not finite (as a 32-bit float)");
             }
@@ -420,6 +422,10 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
 }
 
 #[cfg(test)]
+#[path = "csvio_fuzz.rs"]
+mod fuzz;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
@@ -476,6 +482,19 @@ mod tests {
         assert_eq!(back.omega, rec.omega);
         assert_eq!(back.current, rec.current);
         assert_eq!(back.v, rec.v);
+    }
+
+    #[test]
+    fn a_quoted_line_break_in_a_number_is_refused_on_one_line() {
+        // Found by the csv fuzz target: the field was echoed as it was, on two lines.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, "t,v,omega\n0,\"1\n2\",1\n").unwrap();
+        let err = format!("{:#}", OwnedRecord::read(&path).unwrap_err());
+        assert!(
+            err.ends_with("line 2: v = '1\\n2' is not a number"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -62,6 +62,14 @@ pub fn parse_motor(text: &str) -> Result<ModelParams, String> {
                 if id == ParamId::B { ">= 0" } else { "> 0" }
             ));
         }
+        // Positive, yet below what the model takes (a subnormal f32): refused here, as a
+        // usage error, rather than by the model later.
+        let (lo, _) = id.physical_range();
+        if x < lo {
+            return Err(format!(
+                "{k} = {x:e} is below {lo:e}, the smallest it can be"
+            ));
+        }
         p.set(id, x);
         seen[id.index()] = true;
     }
@@ -146,8 +154,9 @@ pub fn parse_bounds(text: &str) -> Result<BoundsSpec, String> {
         let (lo, hi) = v
             .split_once(':')
             .ok_or_else(|| format!("{k} needs LO:HI, got '{v}'"))?;
-        let lo = number(k, lo)?;
-        let hi = number(k, hi)?;
+        // Blanks around LO and HI, as around every key and value (`ra = 1 : 5`).
+        let lo = number(k, lo.trim())?;
+        let hi = number(k, hi.trim())?;
         if lo >= hi {
             return Err(format!("{k} has lo {lo} >= hi {hi}"));
         }
@@ -221,6 +230,10 @@ pub fn problem(bounds: &[BoundsSpec], fix: &[FixSpec]) -> Result<ProblemSpec> {
 }
 
 #[cfg(test)]
+#[path = "spec_fuzz.rs"]
+mod fuzz;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
@@ -233,6 +246,9 @@ mod tests {
             .contains("missing j"));
         assert!(parse_motor("ra=1,xx=2").is_err());
         assert!(parse_motor("ra=-1,la=0.01,j=0.1,b=0.01,kv=0.5").is_err());
+        // Found by the spec fuzz target: a subnormal kv was taken, and the model refused it.
+        let tiny = parse_motor("ra=1,la=0.01,j=0.1,b=0.01,kv=1e-44").unwrap_err();
+        assert!(tiny.contains("kv = 1e-44 is below 1.1754944e-38"), "{tiny}");
     }
 
     #[test]
@@ -249,6 +265,8 @@ mod tests {
         assert!(parse_bounds("ra=1").unwrap_err().contains("LO:HI"));
         assert!(parse_bounds("ra=-1:2").unwrap_err().contains("bound of ra"));
         assert!(parse_fix("ra=abc").unwrap_err().contains("not a number"));
+        // Found by the spec fuzz target: blanks around the colon were not a number.
+        assert_eq!(b(" ra = 1 : 5 ").0, vec![(ParamId::Ra, 1.0, 5.0)]);
         // What the arguments only tell together is checked when they are applied.
         assert!(problem(&[b("ra=1:2"), b("ra=1:3")], &[]).is_err());
         assert!(problem(&[b("ra=1:2")], &[f("ra=3")]).is_err());

@@ -185,7 +185,8 @@ impl<'s, const N: usize> Service<'s, N> {
                 let s = &mut *self.store;
                 let n = v.len();
                 // A repeat of the last chunk (its acknowledgement was lost) is acknowledged again.
-                if n > 0 && offset as usize + n == s.len {
+                // Subtracted, not added: `offset + n` overflows the board's 32-bit usize.
+                if n > 0 && s.len.checked_sub(n) == Some(offset as usize) {
                     hw.link.send(&BoardMessage::ChunkOk { next: s.len as u32 });
                     return;
                 }

@@ -7,11 +7,16 @@ use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
 use std::collections::VecDeque;
 
-/// A link whose incoming requests are queued, each released after `after` polls.
+#[path = "service_fuzz.rs"]
+mod fuzz;
+
+/// A link whose incoming requests are queued, each released after `after` polls; it keeps
+/// what it released and what was sent.
 #[derive(Default)]
 struct TestLink {
     incoming: VecDeque<(u32, HostMessage)>,
     polls: u32,
+    received: Vec<HostMessage>,
     sent: Vec<BoardMessage>,
 }
 
@@ -22,7 +27,11 @@ impl Link for TestLink {
     fn poll(&mut self) -> Option<HostMessage> {
         self.polls += 1;
         match self.incoming.front() {
-            Some((after, _)) if self.polls > *after => self.incoming.pop_front().map(|m| m.1),
+            Some((after, _)) if self.polls > *after => {
+                let (_, msg) = self.incoming.pop_front()?;
+                self.received.push(msg.clone());
+                Some(msg)
+            }
             _ => None,
         }
     }
@@ -295,5 +304,40 @@ fn requests_need_a_session_of_the_same_version() {
             },
             BoardMessage::Params(Err(NotStored::Empty)),
         ]
+    );
+}
+
+#[test]
+fn a_chunk_that_would_end_past_u32_max_is_refused_not_taken_for_a_repeat() {
+    // On the board (32-bit usize) offset + len of this chunk wrapped round to 0, the count
+    // received: it was acknowledged as a repeat of the last chunk (or panicked in a debug
+    // build) instead of refused. A 64-bit host cannot wrap: this guards the 32-bit case
+    // when the tests run on a 32-bit target.
+    let mut store = RecordStore::<SAMPLES>::new();
+    let mut service = Service::new(&mut store, LIMITS);
+    let mut hw = hardware(seed_plant());
+    let one = heapless::Vec::from_slice(&[1.0]).unwrap();
+    let requests = [
+        HostMessage::Hello {
+            version: PROTOCOL_VERSION,
+        },
+        HostMessage::IdentifyBegin {
+            dt: 0.01,
+            samples: 16,
+            with_current: false,
+        },
+        HostMessage::RecordChunk {
+            offset: u32::MAX,
+            v: one.clone(),
+            omega: one,
+            current: heapless::Vec::new(),
+        },
+    ];
+    for r in requests {
+        service.handle(r, &mut hw);
+    }
+    assert_eq!(
+        hw.link.sent.last(),
+        Some(&BoardMessage::Refused(Refusal::BadChunk))
     );
 }

@@ -113,7 +113,8 @@ impl Decoder {
             return Some(Err(FrameError::Crc));
         }
         // The whole body is the message: bytes left after it mean another message shape
-        // (another protocol version), not a message to act on.
+        // (another protocol version), not a message to act on. A varint spelled longer than
+        // needed is read as its value, as postcard reads it (docs/CONTRACTS.md).
         Some(match postcard::take_from_bytes(body) {
             Ok((msg, [])) => Ok(msg),
             _ => Err(FrameError::Decode),
@@ -122,13 +123,17 @@ impl Decoder {
 }
 
 #[cfg(test)]
+#[path = "frame_fuzz.rs"]
+mod fuzz;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::wire::protocol::*;
     use proptest::prelude::*;
     use std::vec::Vec;
 
-    fn every_message() -> Vec<HostMessage> {
+    pub(super) fn every_message() -> Vec<HostMessage> {
         let chunk = |x: f32| heapless::Vec::<f32, CHUNK>::from_slice(&[x; CHUNK]).unwrap();
         vec![
             HostMessage::Hello {
@@ -162,7 +167,7 @@ mod tests {
         ]
     }
 
-    fn every_reply() -> Vec<BoardMessage> {
+    pub(super) fn every_reply() -> Vec<BoardMessage> {
         let values = [3.4, 0.057, 0.042, 0.0027, 0.16, 0.05];
         let std = [0.01, f32::NAN, 1e-4, 1e-5, 1e-3, 2e-3];
         let report = |n: usize| MotorReport {

@@ -5,6 +5,8 @@
 //! names and parameter codes it carries are its own types), so both ends read it without
 //! pulling in the fit. See `docs/CONTRACTS.md` for every field and version.
 
+#[cfg(test)]
+pub(crate) mod arbitrary;
 pub mod frame;
 pub mod protocol;
 pub mod stored;
