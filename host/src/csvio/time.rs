@@ -39,6 +39,11 @@ impl TimeSteps {
         self.first
     }
 
+    /// The last time.
+    pub fn last(&self) -> f64 {
+        self.last
+    }
+
     /// The mean step `(t_last - t_first) / (n - 1)`.
     pub fn mean_step(&self) -> f64 {
         (self.last - self.first) / (self.n - 1) as f64
@@ -100,17 +105,17 @@ impl StepScan {
     }
 }
 
-/// The mean step of the strictly increasing, uniformly spaced times `t` (`lines[k]`: the
-/// file line of `t[k]`, for messages); at least two times.
-pub fn uniform_step(t: &[f64], lines: &[u64]) -> Result<f32> {
-    let mut summary = TimeSteps::default();
-    t.iter().for_each(|&x| summary.push(x));
-    summary.step(|scan| t.iter().zip(lines).try_for_each(|(&x, &l)| scan.push(x, l)))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The mean step of the strictly increasing, uniformly spaced times `t` (`lines[k]`: the
+    /// file line of `t[k]`, for messages); at least two times.
+    fn uniform_step(t: &[f64], lines: &[u64]) -> Result<f32> {
+        let mut summary = TimeSteps::default();
+        t.iter().for_each(|&x| summary.push(x));
+        summary.step(|scan| t.iter().zip(lines).try_for_each(|(&x, &l)| scan.push(x, l)))
+    }
 
     #[test]
     fn jittered_time_within_one_percent_is_uniform() {
