@@ -10,7 +10,7 @@ use std::path::Path;
 use std::sync::Once;
 
 /// Most points drawn per series (longer series are decimated).
-const MAX_POINTS: usize = 4000;
+pub const MAX_POINTS: usize = 4000;
 
 fn register_font() {
     static ONCE: Once = Once::new();

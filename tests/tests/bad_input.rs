@@ -324,6 +324,63 @@ fn an_output_into_a_missing_directory_is_one_line_and_nothing_is_left_behind() {
     assert!(!missing.exists());
 }
 
+/// A record beyond the memory bound is refused in one line that names the file and the
+/// `--decimate` that fits it, over every record of the command; a decimation that leaves
+/// too few samples is refused too, and both options refuse nonsense before any file is read.
+#[test]
+fn a_record_beyond_the_memory_bound_is_refused_with_the_decimation_that_fits() {
+    let d = tempfile::tempdir().unwrap();
+    let p = file(
+        &d,
+        "long.csv",
+        &rows(50, |k| format!("{},{},{}", k as f64 * 0.01, 10, k)),
+    );
+    let long = s(&p);
+    let q = file(
+        &d,
+        "other.csv",
+        &rows(50, |k| format!("{},{},{}", k as f64 * 0.01, 10, 2 * k)),
+    );
+    let other = s(&q);
+    for (args, expect) in [
+        (
+            vec!["identify", long, "--max-samples", "20", "-q"],
+            "long.csv: 50 rows, more than --max-samples 20 (8 bytes a sample, 0.00016 MB); keep one sample in 3 rows with --decimate 3, or raise --max-samples",
+        ),
+        (
+            vec!["identify", long, long, "--max-samples", "80", "-q"],
+            "long.csv: 50 rows, more than the 30 samples left of --max-samples 80 by the records before it",
+        ),
+        (
+            vec!["diagnose", "--train", long, "--holdout", other, "--max-samples", "80"],
+            "other.csv: 50 rows, more than the 30 samples left of --max-samples 80",
+        ),
+        (
+            vec!["identify", long, "--decimate", "8", "-q"],
+            "long.csv: only 6 samples of 50 rows with --decimate 8 (need at least 8)",
+        ),
+    ] {
+        let err = run_err(&args);
+        assert!(err.contains(expect), "{args:?}: expected '{expect}' in: {err}");
+    }
+    for args in [
+        vec!["identify", long, "--max-samples", "7"],
+        vec!["identify", long, "--decimate", "0"],
+        vec![
+            "diagnose",
+            "--train",
+            long,
+            "--holdout",
+            long,
+            "--decimate",
+            "x",
+        ],
+    ] {
+        let err = run_usage_err(&args);
+        assert!(err.contains("invalid value"), "{args:?}: {err}");
+    }
+}
+
 #[test]
 fn a_scope_step_outside_the_trace_is_refused() {
     let d = tempfile::tempdir().unwrap();

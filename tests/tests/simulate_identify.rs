@@ -383,3 +383,49 @@ fn compare_runs_every_optimiser_on_the_same_budget_reproducibly() {
     };
     assert_eq!(strip(&r), strip(&again));
 }
+
+/// A 10 kHz record read with `--decimate 10` is a 1 kHz record of the same motor: the step
+/// ten times longer, the readings' noise down by sqrt(10), the motor recovered as closely.
+#[test]
+fn a_decimated_record_identifies_the_same_motor() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("fast.csv");
+    let report = dir.path().join("r.json");
+    simulate(
+        &csv,
+        &[
+            "--profile",
+            "steps",
+            "--rate",
+            "10000",
+            "--duration",
+            "20",
+            "--noise-omega",
+            "0.5",
+            "--noise-current",
+            "0.02",
+        ],
+    );
+    let out = run_ok(&[
+        "identify",
+        s(&csv),
+        "--decimate",
+        "10",
+        "--json",
+        s(&report),
+        "-q",
+    ]);
+    assert!(out.starts_with("fitted 20000 samples"), "{out}");
+    let r = json(&report);
+    let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
+    for (name, t) in MOTOR.iter().zip(truth) {
+        assert!(
+            rel(param(&r, name), t) < 0.01,
+            "{name}: {} vs {t}",
+            param(&r, name)
+        );
+    }
+    let sigma = r["noise"]["sigma_omega"].as_f64().unwrap();
+    assert!((sigma / (0.5 / 10f64.sqrt()) - 1.0).abs() < 0.05, "{sigma}");
+    assert!(r["rmse_omega"].as_f64().unwrap() < 1.05 * sigma);
+}

@@ -3,7 +3,7 @@
 //! convergence plot.
 
 use crate::comparison::{evaluations_to, run, Optimiser, Run};
-use crate::csvio::OwnedRecord;
+use crate::csvio::{ReadOptions, RecordReader};
 use crate::fit::FitOptions;
 use crate::output::write_json;
 use crate::plot::{draw, Panel, Series};
@@ -23,6 +23,8 @@ pub struct CompareArgs {
     pub files: Vec<PathBuf>,
     #[command(flatten)]
     pub fit: FitOptions,
+    #[command(flatten)]
+    pub read: ReadOptions,
     /// Evaluations each optimiser may spend (the pipelines stop earlier on their own).
     #[arg(long, default_value_t = 4000)]
     pub budget: u32,
@@ -74,7 +76,7 @@ pub fn run_compare(a: &CompareArgs) -> Result<()> {
     if a.runs == 0 || a.budget < 10 {
         bail!("--runs must be at least 1 and --budget at least 10");
     }
-    let records = OwnedRecord::read_all(&a.files)?;
+    let records = RecordReader::new(&a.read).read_all(&a.files)?;
     let spec = problem(&a.fit.bounds, &a.fit.fix)?;
     let with_current = !a.fit.speed_only && records.iter().all(|r| r.current.is_some());
     let mut all: Vec<(Optimiser, Vec<Run>)> = Vec::new();

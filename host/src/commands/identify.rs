@@ -1,7 +1,7 @@
 //! `motor-id identify`: fit one or more record CSVs jointly, print the summary, and write
 //! the JSON report and the plot when asked.
 
-use crate::csvio::OwnedRecord;
+use crate::csvio::{ReadOptions, RecordReader};
 use crate::fit::{fit, FitOptions, PipelineArg};
 use crate::fit_plot::plot_fit;
 use crate::output::write_json;
@@ -20,6 +20,8 @@ pub struct IdentifyArgs {
     pub files: Vec<PathBuf>,
     #[command(flatten)]
     pub fit: FitOptions,
+    #[command(flatten)]
+    pub read: ReadOptions,
     /// Pipeline: `default` (equation-error start and least squares; a short FFO when that
     /// stays above the noise floor, then wider searches up to the seed's FFO), `board` (what
     /// a drive board runs: the same within its memory) or `paper` (the seed's FFO alone).
@@ -50,7 +52,7 @@ impl IdentifyArgs {
 
 /// Run `identify`.
 pub fn run(a: &IdentifyArgs) -> Result<()> {
-    let records = OwnedRecord::read_all(&a.files)?;
+    let records = RecordReader::new(&a.read).read_all(&a.files)?;
     let pipeline = a.pipeline();
     let f = fit(&records, &a.fit, pipeline)?;
     let samples: usize = records.iter().map(|r| r.len()).sum();

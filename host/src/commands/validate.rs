@@ -1,7 +1,7 @@
 //! `motor-id validate`: identified parameters checked on new experiments (seed Figs. 11-14:
 //! start-up, load change, speed change); the checking itself is [`crate::validation`].
 
-use crate::csvio::OwnedRecord;
+use crate::csvio::{ReadOptions, RecordReader};
 use crate::output::write_json;
 use crate::validation::{check, plot, read_params};
 use anyhow::Result;
@@ -18,6 +18,8 @@ pub struct ValidateArgs {
     /// Record CSVs to check the parameters on.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
+    #[command(flatten)]
+    pub read: ReadOptions,
     /// Judge the speed only, even where a record has current.
     #[arg(long)]
     pub speed_only: bool,
@@ -32,7 +34,7 @@ pub struct ValidateArgs {
 /// Run `validate`.
 pub fn run(a: &ValidateArgs) -> Result<()> {
     let p = read_params(&a.params)?;
-    let records = OwnedRecord::read_all(&a.files)?;
+    let records = RecordReader::new(&a.read).read_all(&a.files)?;
     let (report, predicted) = check(&p, &records, a.speed_only)?;
     print!("{}", report.text());
     if let Some(path) = &a.json {

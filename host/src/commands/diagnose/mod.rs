@@ -18,7 +18,7 @@ mod search;
 mod spectrum;
 mod verdict;
 
-use crate::csvio::OwnedRecord;
+use crate::csvio::{ReadOptions, RecordReader};
 use crate::fit::FitOptions;
 use crate::output::write_json;
 use anyhow::{bail, Result};
@@ -40,6 +40,8 @@ pub struct DiagnoseArgs {
     pub holdout: Vec<PathBuf>,
     #[command(flatten)]
     pub fit: FitOptions,
+    #[command(flatten)]
+    pub read: ReadOptions,
     /// Runs of one experiment (same input), comma-separated: a group of repeats whose
     /// run-to-run spread is the repeatability floor (repeatable; files not among the
     /// training or held-out records are read for this only).
@@ -68,8 +70,9 @@ fn effect_name() -> impl TypedValueParser<Value = Effect> {
 
 /// Run `diagnose`.
 pub fn run(a: &DiagnoseArgs) -> Result<()> {
-    let train = OwnedRecord::read_all(&a.train)?;
-    let holdout = OwnedRecord::read_all(&a.holdout)?;
+    let mut reader = RecordReader::new(&a.read);
+    let train = reader.read_all(&a.train)?;
+    let holdout = reader.read_all(&a.holdout)?;
     // Judging on a record the fit saw says nothing about what it never saw.
     for h in &holdout {
         if let Some(t) = train.iter().find(|t| t.same_data(h)) {
@@ -88,7 +91,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         with_current,
     };
     // The repeats first: a file given by --repeats that cannot be read fails before the fits.
-    let repeats = repeatability::Repeats::find(&data, &a.repeats)?;
+    let repeats = repeatability::Repeats::find(&data, &a.repeats, &mut reader)?;
     let found = search::search(&data, &a.fit, &a.without)?;
     let after = found.last();
     let repeats = repeats.report(&data, &after.fit.result.params)?;

@@ -20,7 +20,7 @@
 //! are compared sample by sample over their common length.
 
 use super::data::Data;
-use crate::csvio::OwnedRecord;
+use crate::csvio::{OwnedRecord, RecordReader};
 use crate::report::Num;
 use anyhow::{bail, Result};
 use motor_id_shared::ModelParams;
@@ -270,8 +270,8 @@ pub struct Repeats {
 
 impl Repeats {
     /// The repeat groups among the records of `data` and the groups `given` by `--repeats`
-    /// (comma-separated files, read when they are not among the records).
-    pub fn find(data: &Data, given: &[String]) -> Result<Repeats> {
+    /// (comma-separated files, read by `reader` when they are not among the records).
+    pub fn find(data: &Data, given: &[String], reader: &mut RecordReader) -> Result<Repeats> {
         let given: Vec<Vec<PathBuf>> = given
             .iter()
             .map(|g| {
@@ -296,7 +296,7 @@ impl Repeats {
         for p in given.iter().flatten() {
             let known = |r: &OwnedRecord| same_file(&r.path, p);
             if !runs.iter().any(|r| known(r.rec)) && !extra.iter().any(known) {
-                extra.push(OwnedRecord::read(p)?);
+                extra.push(reader.read(p)?);
             }
         }
         runs.extend(extra.iter().map(|rec| Run {

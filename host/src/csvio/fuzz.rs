@@ -10,6 +10,7 @@
 //! - a generated record (any column order and header case, extra columns, CRLF, a
 //!   coast-down, any finite samples within the limit) loads to exactly its samples.
 
+use super::rows::MAX_MAGNITUDE;
 use super::*;
 use motor_id_fuzz::{check, corpus, mutated};
 use proptest::collection::vec;
