@@ -10,7 +10,7 @@
 //! `cargo run --release -p motor-id --example benchmark -- [MOTORS] [--skip-paper]`
 
 use motor_id_shared::fit::ffo::{FfoConfig, Soil};
-use motor_id_shared::fit::identify::{identify_escalating, IdentifyConfig};
+use motor_id_shared::fit::identify::{identify, IdentifyConfig};
 use motor_id_shared::fit::objective::Objective;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::synth::TableOneCase;
@@ -54,7 +54,7 @@ fn run(case: &Case, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
     let objective = Objective::new(&rec).unwrap();
     let floor = objective.cost(&case.truth).unwrap();
     let start = Instant::now();
-    let id = identify_escalating(&rec, &ProblemSpec::default(), cfg, None, |_| {
+    let id = identify(&rec, &ProblemSpec::default(), cfg, |_| {
         ControlFlow::Continue(())
     })
     .unwrap();

@@ -7,7 +7,7 @@ use crate::spec::{parse_bounds, parse_fix, problem, BoundsSpec, FixSpec};
 use anyhow::{anyhow, Result};
 use clap::Args;
 use motor_id_shared::fit::identify::{
-    identify_escalating, Escalation, Identification, IdentifyConfig, Pipeline,
+    identify_from, Escalation, Identification, IdentifyConfig, Pipeline,
 };
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::wire::protocol::PipelineName;
@@ -83,7 +83,7 @@ pub struct Fit {
 
 /// Identify from loaded records with the problem given on the command line, with the
 /// pipeline's escalation: a fit that stays above its noise floor is not yet blamed on the
-/// model, the search is widened first (`identify_escalating`); `widened` and the
+/// model, the search is widened first (`fit::identify::identify_from`); `widened` and the
 /// evaluations count every search.
 pub fn fit(records: &[OwnedRecord], opts: &FitOptions, pipeline: Pipeline) -> Result<Fit> {
     let spec = problem(&opts.bounds, &opts.fix)?;
@@ -103,7 +103,8 @@ pub fn fit_spec(records: &[OwnedRecord], opts: &FitOptions, spec: &ProblemSpec) 
 
 /// Identify `spec` from loaded records with the default pipeline from `initial`, without
 /// its escalation: for the diagnosis' fits of an effect added to a model fitted already
-/// (whose misfit the diagnosis judges, not a stuck search's).
+/// (whose misfit the diagnosis judges, not a stuck search's); its uncertainties are the
+/// local (delta-method) ones, without the profile check.
 pub fn fit_from(
     records: &[OwnedRecord],
     opts: &FitOptions,
@@ -112,6 +113,7 @@ pub fn fit_from(
 ) -> Result<Fit> {
     let cfg = IdentifyConfig {
         escalation: Escalation::None,
+        profile_check: false,
         ..IdentifyConfig::default_pipeline(opts.seed)
     };
     run_fit(records, opts, spec, &cfg, Some(initial))
@@ -119,20 +121,19 @@ pub fn fit_from(
 
 /// Refit `spec` by least squares from `start` alone, without a global search: for a start
 /// that lies in the optimum's basin already (an effect's fit continued with every parameter
-/// free, a model refitted with one effect taken out).
+/// free, a model refitted with one effect taken out). Its uncertainties are the local
+/// (delta-method) ones, without the profile check.
 pub fn refit_from(
     records: &[OwnedRecord],
     opts: &FitOptions,
     spec: &ProblemSpec,
     start: &ModelParams,
 ) -> Result<Fit> {
-    run_fit(
-        records,
-        opts,
-        spec,
-        &IdentifyConfig::local(opts.seed),
-        Some(start),
-    )
+    let cfg = IdentifyConfig {
+        profile_check: false,
+        ..IdentifyConfig::local(opts.seed)
+    };
+    run_fit(records, opts, spec, &cfg, Some(start))
 }
 
 fn run_fit(
@@ -146,7 +147,7 @@ fn run_fit(
     let with_current = !opts.speed_only && records.iter().all(|r| r.current.is_some());
     let borrowed = OwnedRecord::as_records(records, with_current);
     let bar = FitProgress::new(opts.quiet);
-    let result = identify_escalating(&borrowed, &spec, cfg, initial, |p| {
+    let result = identify_from(&borrowed, &spec, cfg, initial, |p| {
         bar.update(p);
         ControlFlow::Continue(())
     });

@@ -11,9 +11,7 @@ use crate::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
 use crate::device::job::{abort_requested, fail, refuse, JobEnd};
 use crate::device::record_store::RecordStore;
 use crate::device::report::motor_report;
-use crate::fit::identify::{
-    identify_escalating, Identification, IdentifyConfig, Pipeline, Progress, Stage,
-};
+use crate::fit::identify::{identify, Identification, IdentifyConfig, Pipeline, Progress, Stage};
 use crate::fit::space::ProblemSpec;
 use crate::wire::protocol::{
     BoardMessage, HostMessage, JobStage, MotorReport, NotStored, PipelineName, Refusal,
@@ -248,7 +246,7 @@ impl<'s, const N: usize> Service<'s, N> {
         let record = [self.store.record()];
         let mut aborted = false;
         let (link, watchdog) = (&mut hw.link, &mut hw.watchdog);
-        let result = identify_escalating(&record, spec, cfg, None, |p: &Progress| {
+        let result = identify(&record, spec, cfg, |p: &Progress| {
             watchdog.feed();
             link.send(&BoardMessage::Progress {
                 stage: match p.stage {

@@ -77,12 +77,16 @@ pub struct IdentifyConfig {
     /// When the FFO runs.
     pub search: SearchWhen,
     /// The wider searches a fit that stays above the noise floor escalates to
-    /// ([`identify_escalating`]).
+    /// ([`identify_from`]).
     pub escalation: Escalation,
+    /// Check the local uncertainty along the valley where the fit has a flat direction
+    /// ([`crate::fit::profile`]); off for fits whose uncertainty nobody reads (the
+    /// diagnosis' candidate effects), which saves its least-squares refits.
+    pub profile_check: bool,
 }
 
-/// The wider searches of [`identify_escalating`], for a fit that stays above the noise
-/// floor: a stuck search is not yet a model that misses something.
+/// The wider searches of [`identify_from`], for a fit that stays above the noise floor: a
+/// stuck search is not yet a model that misses something.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Escalation {
     /// None: the fit is final.
@@ -124,6 +128,7 @@ impl IdentifyConfig {
             equation_error_start: true,
             search: SearchWhen::AboveFloor,
             escalation: Escalation::Host,
+            profile_check: true,
         }
     }
 
@@ -145,43 +150,22 @@ impl IdentifyConfig {
         }
     }
 
-    /// The wider searches of its [`Escalation`], in order.
-    pub fn wider(&self) -> heapless::Vec<IdentifyConfig, 2> {
-        let with = |ffo: FfoConfig, seed: u64| IdentifyConfig {
-            ffo,
-            search: SearchWhen::Always,
-            escalation: Escalation::None,
-            seed,
-            ..*self
+    /// Wider search `step` (0, 1) of its [`Escalation`]: the FFO and its random seed (other
+    /// random numbers than the pipeline's own search); `None` past the last.
+    pub fn wider(&self, step: usize) -> Option<(FfoConfig, u64)> {
+        let ffo = match (self.escalation, step) {
+            (Escalation::Board, 0 | 1) => FfoConfig {
+                iterations: [5, 25][step] * self.ffo.iterations,
+                ..self.ffo
+            },
+            (Escalation::Host, 0 | 1) => FfoConfig {
+                iterations: [20, FfoConfig::SEED.iterations][step],
+                soil: Soil::TowardsBest,
+                ..FfoConfig::SEED
+            },
+            _ => return None,
         };
-        let longer = |iterations: u32| FfoConfig {
-            iterations,
-            ..self.ffo
-        };
-        let seed_towards = |iterations: u32| FfoConfig {
-            iterations,
-            soil: Soil::TowardsBest,
-            ..FfoConfig::SEED
-        };
-        let mut out = heapless::Vec::new();
-        let steps = match self.escalation {
-            Escalation::None => [None, None],
-            Escalation::Board => [
-                Some(longer(5 * self.ffo.iterations)),
-                Some(longer(25 * self.ffo.iterations)),
-            ],
-            Escalation::Host => [
-                Some(seed_towards(20)),
-                Some(seed_towards(FfoConfig::SEED.iterations)),
-            ],
-        };
-        for (k, ffo) in steps.into_iter().enumerate() {
-            if let Some(ffo) = ffo {
-                // Other random numbers than the pipeline's own search.
-                let _ = out.push(with(ffo, self.seed.wrapping_add(k as u64 + 1)));
-            }
-        }
-        out
+        Some((ffo, self.seed.wrapping_add(step as u64 + 1)))
     }
 
     /// The seed's workflow: FFO with the seed's settings (40,100 evaluations) in linear
@@ -196,6 +180,7 @@ impl IdentifyConfig {
             equation_error_start: false,
             search: SearchWhen::Always,
             escalation: Escalation::None,
+            profile_check: true,
         }
     }
 }
@@ -255,7 +240,7 @@ pub struct Identification {
     pub sigma_current: Option<f32>,
     /// False when the caller stopped it early (the result is the best so far).
     pub completed: bool,
-    /// Wider searches run after the pipeline's own ([`identify_escalating`]).
+    /// Wider searches of the escalation run after the pipeline's own.
     pub widened: u32,
 }
 
@@ -280,7 +265,12 @@ pub fn identify(
 }
 
 /// As [`identify`], starting from `initial` (free parameters taken from it, e.g. a previous
-/// fit when an effect is added) instead of the equation-error estimate.
+/// fit when an effect is added) instead of the equation-error estimate. Both escalate as
+/// the pipeline says ([`Escalation`]): while the fit stays above the noise floor
+/// ([`NOISE_FLOOR_FACTOR`] times the measured noise), the wider searches of
+/// [`IdentifyConfig::wider`] in turn, until one reaches the floor, or gains under 1 %, or the
+/// widest has run; `evaluations` counts every search and `widened` how many wider ones ran.
+/// A stuck search is thus not reported as a model that misses something.
 pub fn identify_from(
     records: &[Record],
     spec: &ProblemSpec,
@@ -296,8 +286,9 @@ pub fn identify_from(
     let mut run = Run {
         objective: &objective,
         space: &space,
-        cfg,
+        cfg: *cfg,
         progress,
+        widened: 0,
         trace: heapless::Vec::new(),
         evaluations: 0,
         refine_iterations: 0,
@@ -336,11 +327,28 @@ pub fn identify_from(
         let seed_point = run.best.map(|(u, _)| u).or(start_u);
         run.search(seed_point.as_ref().map(|u| &u[..dim]))?;
     }
+    // A fit still above the noise floor is not yet blamed on the model: the wider searches
+    // of the escalation, each seeded with the same start, until one reaches the floor or
+    // gains under 1 % over the fit before it (it agrees: the misfit is the model's, and a
+    // still wider one would only cost time). The best fit so far is kept throughout.
+    while let Some((ffo, seed)) = cfg.wider(run.widened as usize) {
+        let before = run.best_fitness();
+        if !run.completed || before <= floor {
+            break;
+        }
+        run.cfg.ffo = ffo;
+        run.cfg.seed = seed;
+        run.widened += 1;
+        run.search(start_u.as_ref().map(|u| &u[..dim]))?;
+        if run.best_fitness() > WIDER_GAIN * before {
+            break;
+        }
+    }
     let (u, cost) = run.best.ok_or(Error::NoFiniteCandidate)?;
-    let identifiability = analyse(&objective, &space, &u[..dim], &cost)?;
-    let identifiability = match &cfg.refine {
-        Some(lm) => profile::widen(
-            identifiability,
+    let mut identifiability = analyse(&objective, &space, &u[..dim], &cost)?;
+    if let (Some(lm), true) = (&cfg.refine, cfg.profile_check) {
+        profile::widen(
+            &mut identifiability,
             &objective,
             spec,
             &space,
@@ -348,9 +356,8 @@ pub fn identify_from(
             &space.params(&u[..dim]),
             &cost,
             lm,
-        ),
-        None => identifiability,
-    };
+        );
+    }
     Ok(Identification {
         params: space.params(&u[..dim]),
         cost,
@@ -361,7 +368,7 @@ pub fn identify_from(
         sigma_omega: objective.sigma_omega(),
         sigma_current: objective.sigma_current(),
         completed: run.completed,
-        widened: 0,
+        widened: run.widened,
     })
 }
 
@@ -369,60 +376,15 @@ pub fn identify_from(
 /// and the wider search agrees that the misfit is the model's.
 const WIDER_GAIN: f32 = 0.99;
 
-/// [`identify_from`] with `cfg`, then, while the fit stays above the noise floor
-/// ([`NOISE_FLOOR_FACTOR`] times the measured noise), the wider searches of its
-/// [`Escalation`] ([`IdentifyConfig::wider`]) in turn, each from the same start: until a fit
-/// reaches the floor, or a wider search finds no fit better by 1 % (it agrees with the
-/// search before it: the misfit is the model's, and a still wider one would only cost
-/// time), or the widest has run. The best fit is kept; `evaluations` counts every search
-/// and `widened` how many wider ones ran. A stuck search is thus not reported as a model
-/// that misses something.
-pub fn identify_escalating(
-    records: &[Record],
-    spec: &ProblemSpec,
-    cfg: &IdentifyConfig,
-    initial: Option<&ModelParams>,
-    mut progress: impl FnMut(&Progress) -> ControlFlow<()>,
-) -> Result<Identification, Error> {
-    let mut best = identify_from(records, spec, cfg, initial, &mut progress)?;
-    let mut evaluations = best.evaluations;
-    for (k, wider) in cfg.wider().iter().enumerate() {
-        let floor = NOISE_FLOOR_FACTOR * best.sigma_omega;
-        if !best.completed || best.cost.fitness() <= floor {
-            break;
-        }
-        let before = best.cost.fitness();
-        let offset = evaluations;
-        let next = identify_from(records, spec, wider, initial, |p: &Progress| {
-            progress(&Progress {
-                evaluations: offset + p.evaluations,
-                ..*p
-            })
-        })?;
-        evaluations += next.evaluations;
-        let completed = next.completed;
-        if next.cost.fitness() < before {
-            best = next;
-            for point in best.trace.iter_mut() {
-                point.evaluations += offset;
-            }
-        }
-        best.widened = k as u32 + 1;
-        best.completed = completed;
-        if best.cost.fitness() > WIDER_GAIN * before {
-            break;
-        }
-    }
-    best.evaluations = evaluations;
-    Ok(best)
-}
-
 /// State of one identification run: the best point so far, the trace and the counters.
 struct Run<'o, 'r, 'a, P> {
     objective: &'o Objective<'r, 'a>,
     space: &'o Space,
-    cfg: &'o IdentifyConfig,
+    /// The pipeline's settings; its FFO and seed become a wider search's on escalation.
+    cfg: IdentifyConfig,
     progress: P,
+    /// Wider searches of the escalation run so far.
+    widened: u32,
     trace: heapless::Vec<TracePoint, TRACE_CAPACITY>,
     evaluations: u32,
     refine_iterations: u32,
@@ -469,7 +431,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
         let base = self.evaluations;
         let before = self.best_fitness();
         let mut stop = false;
-        let result = levenberg_marquardt(self.objective, self.space, u0, &lm, |lp| {
+        let result = levenberg_marquardt(self.objective, self.space, u0, &lm, &mut |lp| {
             self.refine_iterations += 1;
             let p = Progress {
                 stage: Stage::Refine,
@@ -523,11 +485,11 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
     fn explore(&mut self, seed_point: Option<&[f32]>) -> Result<RefineStarts, Error> {
         let (objective, space) = (self.objective, self.space);
         let fitness = |u: &[f32], bound: f32| objective.fitness_below(space, u, bound);
-        let cfg = self.cfg;
+        let (iterations, restarts) = (self.cfg.ffo.iterations, self.cfg.restarts);
         let mut ffo = Ffo::<MAX_POPULATION, MAX_FREE>::with_start(
-            cfg.ffo,
+            self.cfg.ffo,
             space.dim(),
-            cfg.seed,
+            self.cfg.seed,
             seed_point,
             fitness,
         )?;
@@ -545,7 +507,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
             let p = ffo.step(fitness);
             self.evaluations = base + p.evaluations;
             let best = p.best_cost.min(self.best_fitness());
-            if !self.report(Stage::Search, p.iteration, cfg.ffo.iterations, best) {
+            if !self.report(Stage::Search, p.iteration, iterations, best) {
                 break;
             }
         }
@@ -562,7 +524,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
             return Err(Error::NoFiniteCandidate);
         }
         let mut starts = RefineStarts::new();
-        for rank in 0..=cfg.restarts as usize {
+        for rank in 0..=restarts as usize {
             let (u0, c0) = ffo.ranked(rank);
             if !c0.is_finite() {
                 break;

@@ -135,11 +135,10 @@ fn coverage(motors: u64, with_current: bool) -> (usize, usize) {
             load: None,
             coast_from: None,
         }];
-        let id = identify_escalating(
+        let id = identify(
             &rec,
             &ProblemSpec::default(),
             &IdentifyConfig::board(1),
-            None,
             |_| ControlFlow::Continue(()),
         )
         .unwrap();

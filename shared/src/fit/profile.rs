@@ -22,8 +22,8 @@
 //! in small steps). So the valley is also walked: from the optimum along each flat
 //! direction to half way and all the way to the box's edge, both ways, and least squares
 //! from there back down onto the valley (across it, where the fit is stiff, which it does
-//! well). Each point it lands on that fits as well as the optimum (within
-//! [`VALLEY_FIT`]) is an equally good answer the data cannot tell apart: a parameter that
+//! well). Each point it lands on that fits as well as the optimum (a rise of at most
+//! [`VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a parameter that
 //! differs there from the optimum by more than three local deviations is touched by the
 //! flat direction after all (the valley bends into it), and it is not pinned.
 //!
@@ -41,18 +41,24 @@ use core::ops::ControlFlow;
 
 /// How many local standard deviations the profile steps to each side.
 const STEPS: f64 = 3.0;
-/// A point of the valley walk fits as well as the optimum when its fitness is within this
-/// factor of the optimum's.
-const VALLEY_FIT: f32 = 1.01;
+/// A point of the valley walk fits as well as the optimum when its cost rises by at most
+/// this much over the optimum's, in units of the residual variance (`d chi^2 <= 1`: within
+/// one standard deviation, data that cannot tell the two apart). Relative to the residual's
+/// variance, so that a model that misfits (a residual several times the noise) is not given
+/// a wider valley than one that fits.
+const VALLEY_FIT: f64 = 1.0;
 /// Fractions of the way to the box's edge the valley walk starts from.
 const WALK: [f32; 2] = [0.5, 1.0];
 
 /// Widen the deviations of `id`'s pinned parameters by the profile check (module doc), for
 /// the fit `at` of `spec` with cost `cost`, searched in `space` (log-scaled where
 /// `log_scale`); the evaluations it spends are added to `id.evaluations`.
+/// Not inlined, nor the walk: their frames (a profile's problem and space) are on the stack
+/// only while they run, not throughout the identification's.
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 pub fn widen(
-    mut id: Identifiability,
+    id: &mut Identifiability,
     objective: &Objective,
     spec: &ProblemSpec,
     space: &Space,
@@ -60,13 +66,13 @@ pub fn widen(
     at: &ModelParams,
     cost: &Cost,
     lm: &LmConfig,
-) -> Identifiability {
+) {
     if id.unpinned.is_empty() || !id.params.iter().any(|c| c.pinned) {
-        return id;
+        return;
     }
-    let farthest = walk_the_valley(&mut id, objective, space, at, cost, lm);
     let dof = (cost.residuals as f64 - space.dim() as f64).max(1.0);
     let sigma2 = (cost.sse / dof).max(f64::MIN_POSITIVE);
+    let farthest = walk_the_valley(id, objective, space, at, cost, sigma2, lm);
     for certainty in id.params.iter_mut() {
         let Some(std) = certainty.std.filter(|_| certainty.pinned) else {
             continue;
@@ -103,7 +109,7 @@ pub fn widen(
                 continue;
             };
             let start = profile.unit(&fixed.base);
-            let Some(r) = levenberg_marquardt(objective, &profile, &start, lm, |_| {
+            let Some(r) = levenberg_marquardt(objective, &profile, &start, lm, &mut |_| {
                 ControlFlow::Continue(())
             }) else {
                 continue;
@@ -118,18 +124,19 @@ pub fn widen(
             certainty.std = certainty.pinned.then_some(widest as f32);
         }
     }
-    id
 }
 
 /// The valley walk (module doc): for every free parameter, its largest distance from the
 /// optimum over the points of the flat directions' valley that fit as well (in its own
-/// unit). Adds the evaluations to `id.evaluations`.
+/// unit; `sigma2` the residual variance). Adds the evaluations to `id.evaluations`.
+#[inline(never)]
 fn walk_the_valley(
     id: &mut Identifiability,
     objective: &Objective,
     space: &Space,
     at: &ModelParams,
     cost: &Cost,
+    sigma2: f64,
     lm: &LmConfig,
 ) -> [f64; MAX_FREE] {
     let dim = space.dim();
@@ -164,13 +171,13 @@ fn walk_the_valley(
                 for i in 0..dim {
                     start[i] = (u0[i] + sign * fraction * edge * du[i]).clamp(0.0, 1.0);
                 }
-                let Some(r) = levenberg_marquardt(objective, space, &start[..dim], lm, |_| {
+                let Some(r) = levenberg_marquardt(objective, space, &start[..dim], lm, &mut |_| {
                     ControlFlow::Continue(())
                 }) else {
                     continue;
                 };
                 id.evaluations += r.evaluations;
-                if r.cost.fitness() > VALLEY_FIT * cost.fitness() {
+                if (r.cost.sse - cost.sse) / sigma2 > VALLEY_FIT {
                     continue;
                 }
                 let p = space.params(&r.u[..dim]);

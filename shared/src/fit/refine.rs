@@ -69,7 +69,9 @@ pub fn levenberg_marquardt(
     space: &Space,
     u0: &[f32],
     cfg: &LmConfig,
-    mut progress: impl FnMut(&LmProgress) -> ControlFlow<()>,
+    // One instance of the refinement for every caller (on the board: the pipeline's, the
+    // profile check's), not one per closure type.
+    progress: &mut dyn FnMut(&LmProgress) -> ControlFlow<()>,
 ) -> Option<LmResult> {
     let dim = space.dim();
     let mut u = [0.0f32; MAX_FREE];
