@@ -286,7 +286,9 @@ pub fn identify_from(
     let mut run = Run {
         objective: &objective,
         space: &space,
-        cfg: *cfg,
+        cfg,
+        ffo: cfg.ffo,
+        seed: cfg.seed,
         progress,
         widened: 0,
         trace: heapless::Vec::new(),
@@ -336,8 +338,8 @@ pub fn identify_from(
         if !run.completed || before <= floor {
             break;
         }
-        run.cfg.ffo = ffo;
-        run.cfg.seed = seed;
+        run.ffo = ffo;
+        run.seed = seed;
         run.widened += 1;
         run.search(start_u.as_ref().map(|u| &u[..dim]))?;
         if run.best_fitness() > WIDER_GAIN * before {
@@ -345,31 +347,40 @@ pub fn identify_from(
         }
     }
     let (u, cost) = run.best.ok_or(Error::NoFiniteCandidate)?;
-    let mut identifiability = analyse(&objective, &space, &u[..dim], &cost)?;
-    if let (Some(lm), true) = (&cfg.refine, cfg.profile_check) {
-        profile::widen(
-            &mut identifiability,
-            &objective,
-            spec,
-            &space,
-            cfg.log_scale,
-            &space.params(&u[..dim]),
-            &cost,
-            lm,
-        );
-    }
-    Ok(Identification {
+    let mut result = Identification {
         params: space.params(&u[..dim]),
         cost,
         evaluations: run.evaluations,
-        analysis_evaluations: identifiability.evaluations,
+        analysis_evaluations: 0,
         trace: run.trace,
-        identifiability,
+        identifiability: analyse(&objective, &space, &u[..dim], &cost)?,
         sigma_omega: objective.sigma_omega(),
         sigma_current: objective.sigma_current(),
         completed: run.completed,
         widened: run.widened,
-    })
+    };
+    // The profile check works on the result in place: no second copy of the analysis on
+    // this frame, which the whole search's stack stands on. It is entered only when it has
+    // work (a flat direction beside a pinned parameter): its frame (a problem and a space of
+    // its own) would otherwise raise every fit's stack, a full-rank one's too.
+    if let (Some(lm), true, true) = (
+        &cfg.refine,
+        cfg.profile_check,
+        profile::applies(&result.identifiability),
+    ) {
+        profile::widen(
+            &mut result.identifiability,
+            &objective,
+            spec,
+            &space,
+            cfg.log_scale,
+            &result.params,
+            &cost,
+            lm,
+        );
+    }
+    result.analysis_evaluations = result.identifiability.evaluations;
+    Ok(result)
 }
 
 /// A fit this many times better than the one before a wider search counts as a gain; less,
@@ -380,8 +391,10 @@ const WIDER_GAIN: f32 = 0.99;
 struct Run<'o, 'r, 'a, P> {
     objective: &'o Objective<'r, 'a>,
     space: &'o Space,
-    /// The pipeline's settings; its FFO and seed become a wider search's on escalation.
-    cfg: IdentifyConfig,
+    cfg: &'o IdentifyConfig,
+    /// The FFO and random seed of the search: the pipeline's, a wider search's on escalation.
+    ffo: FfoConfig,
+    seed: u64,
     progress: P,
     /// Wider searches of the escalation run so far.
     widened: u32,
@@ -485,11 +498,11 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
     fn explore(&mut self, seed_point: Option<&[f32]>) -> Result<RefineStarts, Error> {
         let (objective, space) = (self.objective, self.space);
         let fitness = |u: &[f32], bound: f32| objective.fitness_below(space, u, bound);
-        let (iterations, restarts) = (self.cfg.ffo.iterations, self.cfg.restarts);
+        let (iterations, restarts) = (self.ffo.iterations, self.cfg.restarts);
         let mut ffo = Ffo::<MAX_POPULATION, MAX_FREE>::with_start(
-            self.cfg.ffo,
+            self.ffo,
             space.dim(),
-            self.cfg.seed,
+            self.seed,
             seed_point,
             fitness,
         )?;

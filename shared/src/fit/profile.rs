@@ -50,6 +50,11 @@ const VALLEY_FIT: f64 = 1.0;
 /// Fractions of the way to the box's edge the valley walk starts from.
 const WALK: [f32; 2] = [0.5, 1.0];
 
+/// Whether the check has work: a flat direction beside a parameter called pinned.
+pub fn applies(id: &Identifiability) -> bool {
+    !id.unpinned.is_empty() && id.params.iter().any(|c| c.pinned)
+}
+
 /// Widen the deviations of `id`'s pinned parameters by the profile check (module doc), for
 /// the fit `at` of `spec` with cost `cost`, searched in `space` (log-scaled where
 /// `log_scale`); the evaluations it spends are added to `id.evaluations`.
@@ -67,7 +72,7 @@ pub fn widen(
     cost: &Cost,
     lm: &LmConfig,
 ) {
-    if id.unpinned.is_empty() || !id.params.iter().any(|c| c.pinned) {
+    if !applies(id) {
         return;
     }
     let dof = (cost.residuals as f64 - space.dim() as f64).max(1.0);
