@@ -95,6 +95,10 @@ pub struct Outcome {
     pub noise_ratio: f64,
     /// Wall time of the diagnosis [s].
     pub seconds: f64,
+    /// The true effects of the case.
+    pub truth: Effects,
+    /// The report's `verdict`.
+    pub verdict: Value,
 }
 
 /// RMS of the encoder's reading against the true mean speed over each sample.
@@ -162,6 +166,8 @@ pub fn check(dir: &Path, names: &[&str], rate: f64, seed: u64) -> Outcome {
         unexplained: v["unexplained"].as_bool().expect("verdict.unexplained"),
         noise_ratio: v["holdout_noise"].as_f64().expect("verdict.holdout_noise") / truth,
         seconds,
+        truth: e,
+        verdict: v,
     }
 }
 

@@ -143,3 +143,31 @@ fn a_pair_of_effects_is_named_exactly_and_nothing_rides_on_it() {
         .into();
     assert_eq!(o.named, expected);
 }
+
+#[test]
+fn asymmetric_friction_and_a_bridge_dead_time_are_named_with_their_sizes() {
+    // Blind-check case 1 of the pair at 2 kHz (encoder speed): both named, nothing more, and
+    // their parameters near the reference plant's (its own formulas: Coulomb torque tc +- ta,
+    // a dead-time error vdt clamp(i / ib, -1, 1)), within what the product's holding of an
+    // effect over a sample and the plant's substeps allow.
+    let dir = tempfile::tempdir().unwrap();
+    let o = motor_id_tests::blind::check(dir.path(), &["asymmetric", "deadtime"], 2000.0, 1);
+    let expected: std::collections::BTreeSet<String> = ["asymmetric_friction", "bridge_deadtime"]
+        .map(String::from)
+        .into();
+    assert_eq!(o.named, expected, "{}", o.verdict);
+    let p = &o.verdict["params"];
+    let got = |k: &str| p[k].as_f64().unwrap_or_else(|| panic!("{k} in {p}"));
+    let e = o.truth;
+    for (name, value, truth, tolerance) in [
+        ("tc", got("tc"), e.tc, 0.03),
+        ("ka", got("ka"), e.ta / e.tc, 0.03),
+        ("vdt", got("vdt"), e.vdt, 0.03),
+    ] {
+        eprintln!("{name}: {value} vs {truth}");
+        assert!(
+            (value / truth - 1.0).abs() < tolerance,
+            "{name}: {value} vs {truth}"
+        );
+    }
+}
