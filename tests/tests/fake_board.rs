@@ -1,6 +1,8 @@
-//! `motor-id board` against a fake board on a pseudo-terminal (no QEMU): a board that speaks
-//! another protocol version, and one that floods the host with frames that never finish a
-//! job. The host must end in one clear line within its timeout every time.
+//! `motor-id board` against a fake board on a pseudo-terminal (no QEMU), the serial link's
+//! faults injected: a board that speaks another protocol version, one that floods the host
+//! with frames that never finish a job, one whose replies come twice or late, one that
+//! resets mid-job, and Ctrl-C during a job. The host must end in one clear line within its
+//! timeout every time (or succeed where the fault leaves the exchange intact).
 
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
@@ -246,4 +248,71 @@ fn ctrl_c_during_a_job_aborts_it_on_the_board() {
         "{err}"
     );
     assert!(asked_to_abort.load(Ordering::Relaxed));
+}
+
+/// The board's answer to `hello` and `params` (no parameters stored).
+fn plain_reply(msg: &HostMessage) -> Vec<BoardMessage> {
+    match msg {
+        HostMessage::Hello { .. } => vec![BoardMessage::Hello {
+            version: PROTOCOL_VERSION,
+            max_samples: 2000,
+        }],
+        HostMessage::ReadParams => vec![BoardMessage::Params(Err(
+            motor_id_shared::wire::protocol::NotStored::Empty,
+        ))],
+        _ => vec![],
+    }
+}
+
+#[test]
+fn duplicated_and_delayed_replies_are_taken_once() {
+    // Every reply twice: the host takes the first and is not confused by the second.
+    let (path, stop, _slave) = fake_board(
+        |msg| {
+            let once = plain_reply(msg);
+            once.iter().cloned().chain(once.iter().cloned()).collect()
+        },
+        None,
+    );
+    for args in [&["hello"][..], &["params"][..]] {
+        let (ok, err) = board(&path, args);
+        assert!(ok, "{args:?}: {err}");
+    }
+    stop.store(true, Ordering::Relaxed);
+    // Every reply 0.6 s late, within the host's 1 s timeout: taken.
+    let (path, stop, _slave) = fake_board(
+        |msg| {
+            std::thread::sleep(Duration::from_millis(600));
+            plain_reply(msg)
+        },
+        None,
+    );
+    let (ok, err) = board(&path, &["hello"]);
+    stop.store(true, Ordering::Relaxed);
+    assert!(ok, "{err}");
+}
+
+#[test]
+fn a_board_that_resets_mid_job_ends_the_host_in_one_line() {
+    // The job starts, reports once, and the board resets: it never mentions the job again
+    // (after a reset it only answers new requests). The host ends within its timeout in
+    // one line instead of waiting for a result that will not come.
+    let (path, stop, _slave) = fake_board(
+        |msg| match msg {
+            HostMessage::Commission { .. } => vec![BoardMessage::Progress {
+                stage: JobStage::Experiment,
+                iteration: 1,
+                total: 2000,
+                evaluations: 0,
+                best: f32::INFINITY,
+            }],
+            other => plain_reply(other),
+        },
+        None,
+    );
+    let (ok, err) = board(&path, &["commission"]);
+    stop.store(true, Ordering::Relaxed);
+    assert!(!ok);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("no answer from the board"), "{err}");
 }
