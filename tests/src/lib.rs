@@ -349,10 +349,13 @@ impl Qemu {
     }
 
     /// `motor-id board --port PTY --timeout T ARGS`: the board command against this QEMU,
-    /// with a reply timeout far above what the emulated board needs on a quiet machine
-    /// (the CLI's default 10 s is for a real board, which no host load slows down).
+    /// with a reply timeout of 30 s, far above what the emulated board needs on a quiet
+    /// machine (the CLI's default 10 s is for a real board, which no host load slows down;
+    /// a busy board answers Busy at every iteration of its job, which restarts the wait).
+    /// Not longer: QEMU's pseudo-terminal sometimes drops a reply between two commands,
+    /// and the host asks again only after the timeout.
     pub fn board_args<'a>(&'a self, args: &[&'a str]) -> Vec<&'a str> {
-        let mut all = vec!["board", "--port", self.pty.as_str(), "--timeout", "120"];
+        let mut all = vec!["board", "--port", self.pty.as_str(), "--timeout", "30"];
         all.extend_from_slice(args);
         all
     }
