@@ -76,14 +76,11 @@ pub struct Fit {
     pub result: Identification,
     /// Whether current was fitted.
     pub with_current: bool,
-    /// Widened searches run after the pipeline, because its fit stayed above the noise
-    /// (see [`fit`]).
-    pub widened: u32,
 }
 
 /// Identify from loaded records with the problem given on the command line, with the
 /// pipeline's escalation: a fit that stays above its noise floor is not yet blamed on the
-/// model, the search is widened first (`fit::identify::identify_from`); `widened` and the
+/// model, the search is widened first (`fit::identify::identify_from`); `result.widened` and the
 /// evaluations count every search.
 pub fn fit(records: &[OwnedRecord], opts: &FitOptions, pipeline: Pipeline) -> Result<Fit> {
     let spec = problem(&opts.bounds, &opts.fix)?;
@@ -155,7 +152,6 @@ fn run_fit(
     let result = result.map_err(|e| anyhow!("identification failed: {e}"))?;
     Ok(Fit {
         spec,
-        widened: result.widened,
         result,
         with_current,
     })

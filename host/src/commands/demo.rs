@@ -78,24 +78,12 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         identified = f.result.params;
         print!(
             "{}",
-            summary(
-                &f.result,
-                &f.spec,
-                records[0].len(),
-                f.with_current,
-                f.widened
-            )
+            summary(&f.result, &f.spec, records[0].len(), f.with_current,)
         );
         let json = a.out_dir.join(format!("{stem}.json"));
         let names = vec![csv.display().to_string()];
-        let report = IdentifyReport::new(
-            &f.result,
-            &f.spec,
-            names,
-            a.seed,
-            Pipeline::Default.name(),
-            f.widened,
-        );
+        let report =
+            IdentifyReport::new(&f.result, &f.spec, names, a.seed, Pipeline::Default.name());
         write_json(&json, &report)?;
         let png = a.out_dir.join(format!("{stem}.png"));
         plot_fit(&png, &records, &f)?;

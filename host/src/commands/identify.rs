@@ -56,20 +56,10 @@ pub fn run(a: &IdentifyArgs) -> Result<()> {
     let pipeline = a.pipeline();
     let f = fit(&records, &a.fit, pipeline)?;
     let samples: usize = records.iter().map(|r| r.len()).sum();
-    print!(
-        "{}",
-        summary(&f.result, &f.spec, samples, f.with_current, f.widened)
-    );
+    print!("{}", summary(&f.result, &f.spec, samples, f.with_current));
     if let Some(path) = &a.json {
         let names = records.iter().map(|r| r.name()).collect();
-        let report = IdentifyReport::new(
-            &f.result,
-            &f.spec,
-            names,
-            a.fit.seed,
-            pipeline.name(),
-            f.widened,
-        );
+        let report = IdentifyReport::new(&f.result, &f.spec, names, a.fit.seed, pipeline.name());
         write_json(path, &report)?;
     }
     if let Some(path) = &a.plot {

@@ -236,7 +236,6 @@ impl IdentifyReport {
         records: Vec<String>,
         seed: u64,
         mode: &'static str,
-        search_widened: u32,
     ) -> IdentifyReport {
         IdentifyReport {
             schema_version: crate::report::SCHEMA_VERSION,
@@ -252,7 +251,7 @@ impl IdentifyReport {
             },
             fitness: Num(id.cost.fitness()),
             fit_quality: FitQuality::of(id),
-            search_widened,
+            search_widened: id.widened,
             completed: id.completed,
             convergence: id
                 .trace

@@ -25,7 +25,6 @@ pub fn summary(
     spec: &ProblemSpec,
     samples: usize,
     with_current: bool,
-    widened: u32,
 ) -> String {
     let mut s = String::new();
     let ident = &id.identifiability;
@@ -68,12 +67,11 @@ pub fn summary(
         s += &format!(", rmse_current = {rc:.6} A");
     }
     s += "\n";
-    if widened > 0 {
-        s +=
-            &format!(
-            "the pipeline's fit stayed above the noise: the search was widened {widened} time(s) \
-             (a wider FFO{}) and the best fit kept\n",
-            if widened > 1 { ", then the seed's full FFO" } else { "" }
+    if id.widened > 0 {
+        s += &format!(
+            "the pipeline's fit stayed above the noise: the search was widened {} time(s) (its \
+             escalation's wider FFO) and the best fit kept\n",
+            id.widened
         );
     }
     let quality = FitQuality::of(id);
