@@ -21,13 +21,6 @@ use std::time::Instant;
 
 const SAMPLES: usize = 2000;
 
-/// The benchmark's cases (`TableOneCase`: log-uniform in Table 1, steps, 1 % noise).
-type Case = TableOneCase;
-
-fn make_case(seed: u64) -> Case {
-    TableOneCase::new(seed, SAMPLES)
-}
-
 struct Outcome {
     success: bool,
     evals_to_floor: Option<u32>,
@@ -42,7 +35,7 @@ struct Outcome {
     widened: u32,
 }
 
-fn run(case: &Case, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
+fn run(case: &TableOneCase, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
     let rec = [Record {
         dt: case.dt,
         v: &case.v,
@@ -122,7 +115,9 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let motors: u64 = args.iter().find_map(|a| a.parse().ok()).unwrap_or(50);
     let skip_paper = args.iter().any(|a| a == "--skip-paper");
-    let cases: Vec<Case> = (1..=motors).map(make_case).collect();
+    let cases: Vec<TableOneCase> = (1..=motors)
+        .map(|seed| TableOneCase::new(seed, SAMPLES))
+        .collect();
     println!("{motors} motors log-uniform in seed Table 1, steps profile, {SAMPLES} samples, 1 % noise\n");
     println!("| pipeline | data | success (RMSE <= 1.01 floor) | median evaluations to floor | median evaluations total | all params within 1 % | all 5 pinned | pinned params within 3 reported std | motors whose search was widened | median host time |");
     println!("|---|---|---|---|---|---|---|---|---|---|");

@@ -5,9 +5,9 @@
 //! by `tests/diagnose_reference.rs`.
 
 use crate::reference_plant::{
-    csv, experiment, run, Effects, Gaussian, Motor, Run, Sensors, Shape, SpeedSensor,
+    csv, experiment, run, Effects, Gaussian, Motor, Sensors, Shape, SpeedSensor,
 };
-use crate::{json, run_ok, s};
+use crate::{diagnose, named_effects};
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -101,13 +101,6 @@ pub struct Outcome {
     pub verdict: Value,
 }
 
-/// RMS of the encoder's reading against the true mean speed over each sample.
-fn true_noise(r: &Run) -> f64 {
-    let n = r.omega.len();
-    let sum: f64 = (1..n).map(|k| (r.omega[k] - r.mean_speed(k)).powi(2)).sum();
-    (sum / (n - 1) as f64).sqrt()
-}
-
 /// Simulate the records (train: ramp, steps, reversal; held out: reversal, ramp) and
 /// diagnose them.
 pub fn check(dir: &Path, names: &[&str], rate: f64, seed: u64) -> Outcome {
@@ -135,31 +128,20 @@ pub fn check(dir: &Path, names: &[&str], rate: f64, seed: u64) -> Outcome {
         };
         let r = run(m, e, sensors, experiment(shape, VOLTS, rate, duration));
         if k >= 3 {
-            noise.push(true_noise(&r));
+            noise.push(r.speed_reading_error_rms());
         }
         let path = dir.join(format!("{name}.csv"));
         csv::write(&r, &path, true);
         paths.push(path);
     }
-    let report = dir.join("diag.json");
-    let mut args = vec!["diagnose", "--train"];
-    args.extend(paths[..3].iter().map(|p| s(p)));
-    args.push("--holdout");
-    args.extend(paths[3..].iter().map(|p| s(p)));
-    args.extend(["--json", s(&report), "-q"]);
     let start = Instant::now();
-    run_ok(&args);
+    let (report, _) = diagnose(&paths[..3], &paths[3..], &[], &dir.join("diag.json"));
     let seconds = start.elapsed().as_secs_f64();
-    let v: Value = json(&report)["verdict"].clone();
+    let v: Value = report["verdict"].clone();
     if std::env::var_os("BLIND_VERBOSE").is_some() {
         eprintln!("truth {e:?}\nverdict {v:#}");
     }
-    let named = v["effects"]
-        .as_array()
-        .expect("verdict.effects")
-        .iter()
-        .map(|x| x["name"].as_str().expect("effect name").to_string())
-        .collect();
+    let named = named_effects(&v).into_iter().collect();
     let truth = (noise[0].powi(2) + noise[1].powi(2)).sqrt() / 2f64.sqrt();
     Outcome {
         named,

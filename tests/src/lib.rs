@@ -142,6 +142,39 @@ pub fn board_record(dir: &Path) -> PathBuf {
     csv
 }
 
+/// `motor-id diagnose --train TRAIN... --holdout HOLDOUT... EXTRA --json REPORT -q`,
+/// required to succeed; returns the JSON report and the text printed.
+pub fn diagnose<P: AsRef<Path>>(
+    train: &[P],
+    holdout: &[P],
+    extra: &[&str],
+    report: &Path,
+) -> (Value, String) {
+    let text = |p: &P| p.as_ref().display().to_string();
+    let (train, holdout): (Vec<String>, Vec<String>) = (
+        train.iter().map(text).collect(),
+        holdout.iter().map(text).collect(),
+    );
+    let mut args = vec!["diagnose", "--train"];
+    args.extend(train.iter().map(String::as_str));
+    args.push("--holdout");
+    args.extend(holdout.iter().map(String::as_str));
+    args.extend_from_slice(extra);
+    args.extend(["--json", s(report), "-q"]);
+    let printed = run_ok(&args);
+    (json(report), printed)
+}
+
+/// The names of the effects a diagnosis `verdict` names (`verdict.effects`), in order.
+pub fn named_effects(verdict: &Value) -> Vec<String> {
+    verdict["effects"]
+        .as_array()
+        .expect("verdict.effects")
+        .iter()
+        .map(|e| e["name"].as_str().expect("effect name").to_string())
+        .collect()
+}
+
 /// `motor-id simulate ARGS --out OUT`.
 pub fn simulate(out: &Path, args: &[&str]) {
     let mut all = vec!["simulate"];

@@ -128,6 +128,16 @@ impl Run {
         (self.theta_true[k] - self.theta_true[k - 1]) / self.input.dt
     }
 
+    /// RMS of the speed reading against the true mean speed over each sample (from the
+    /// second sample): the reading's error, the noise an estimate should find.
+    pub fn speed_reading_error_rms(&self) -> f64 {
+        let n = self.omega.len();
+        let sum: f64 = (1..n)
+            .map(|k| (self.omega[k] - self.mean_speed(k)).powi(2))
+            .sum();
+        (sum / (n - 1) as f64).sqrt()
+    }
+
     /// Largest true speed magnitude.
     pub fn peak_speed(&self) -> f64 {
         self.omega_true.iter().fold(0.0, |a, w| a.max(w.abs()))

@@ -6,7 +6,6 @@
 use motor_id_tests::reference_plant::{
     csv, experiment, run, Effects, Motor, Sensors, Shape, SpeedSensor,
 };
-use motor_id_tests::{json, run_ok, s};
 use serde_json::Value;
 use std::path::Path;
 
@@ -45,15 +44,7 @@ fn diagnose(dir: &Path, effects: Effects, speed: SpeedSensor, extra: &[&str]) ->
         csv::write(&r, &path, true);
         paths.push(path);
     }
-    let report = dir.join("diag.json");
-    let mut args = vec!["diagnose", "--train"];
-    args.extend(paths[..3].iter().map(|p| s(p)));
-    args.push("--holdout");
-    args.extend(paths[3..].iter().map(|p| s(p)));
-    args.extend(["--json", s(&report), "-q"]);
-    args.extend_from_slice(extra);
-    run_ok(&args);
-    json(&report)
+    motor_id_tests::diagnose(&paths[..3], &paths[3..], extra, &dir.join("diag.json")).0
 }
 
 /// Break-away 0.08 N m falling to a Coulomb torque of 0.03 N m over 8 rad/s (6-17 % of the
@@ -72,13 +63,8 @@ fn static_friction_is_named_and_without_its_entry_the_rest_is_unexplained_near_s
     let dir = tempfile::tempdir().unwrap();
     let full = diagnose(dir.path(), sticky(), SpeedSensor::Tacho, &[]);
     let v = &full["verdict"];
-    let named: Vec<&str> = v["effects"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|e| e["name"].as_str().unwrap())
-        .collect();
-    assert!(named.contains(&"static_friction"), "{v}");
+    let named = motor_id_tests::named_effects(v);
+    assert!(named.iter().any(|n| n == "static_friction"), "{v}");
     assert_eq!(v["unexplained"], false, "{v}");
 
     let dir = tempfile::tempdir().unwrap();

@@ -2,6 +2,7 @@
 //! measured by the lab are fixed, the bounds widened (J, B, Kv far below seed Table 1).
 
 use motor_id_tests::{json, param, realdata, run_ok, s};
+use std::path::PathBuf;
 
 /// Ra and La as measured by the lab, held fixed.
 const FIX: [&str; 2] = ["--fix", "ra=3.4,la=0.00285"];
@@ -90,21 +91,19 @@ fn lab_diagnose(
 ) -> Option<(serde_json::Value, String)> {
     let dir = realdata()?;
     let out = tempfile::tempdir().unwrap();
-    let report = out.path().join("diag.json");
-    let path = |f: &&str| dir.join(f).display().to_string();
-    let (train, holdout): (Vec<String>, Vec<String>) = (
+    let path = |f: &&str| dir.join(f);
+    let (train, holdout): (Vec<PathBuf>, Vec<PathBuf>) = (
         train.iter().map(path).collect(),
         holdout.iter().map(path).collect(),
     );
-    let mut args = vec!["diagnose", "--train"];
-    args.extend(train.iter().map(String::as_str));
-    args.push("--holdout");
-    args.extend(holdout.iter().map(String::as_str));
-    args.extend(FIX.iter().chain(&BOUNDS));
-    args.extend(extra);
-    args.extend(["--json", s(&report), "-q"]);
-    let text = run_ok(&args);
-    Some((json(&report), text))
+    let mut options: Vec<&str> = FIX.iter().chain(&BOUNDS).copied().collect();
+    options.extend(extra);
+    Some(motor_id_tests::diagnose(
+        &train,
+        &holdout,
+        &options,
+        &out.path().join("diag.json"),
+    ))
 }
 
 /// The coverage gaps' regime names.

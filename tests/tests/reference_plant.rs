@@ -660,7 +660,7 @@ fn encoder_noise() -> (f64, f64, f64) {
         sensors,
         experiment(Shape::Steps, 24.0, RATE, 1.5),
     );
-    let truth = rms((1..r.omega.len()).map(|k| r.omega[k] - r.mean_speed(k)));
+    let truth = r.speed_reading_error_rms();
     let report = identify(dir.path(), "encoder", &r, &[]);
     let q = encoder_quantum(lines, DT);
     (sigma_omega(&report), truth, q / 12f64.sqrt())

@@ -106,7 +106,6 @@ impl Context<'_> {
         for e in set {
             s = with_effect(&s, *e, start, &self.scales, self.ripple.order)?;
         }
-        s.base = *start;
         Ok(s)
     }
 
