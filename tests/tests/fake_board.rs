@@ -70,6 +70,13 @@ fn start_board(path: &str, args: &[&str]) -> std::process::Child {
         .unwrap()
 }
 
+/// The host failed with one line on stderr that holds `expected`.
+fn failed_in_one_line((ok, err): (bool, String), expected: &str) {
+    assert!(!ok, "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains(expected), "{err}");
+}
+
 fn wait(mut child: std::process::Child, args: &[&str]) -> (bool, String) {
     for _ in 0..600 {
         if let Some(status) = child.try_wait().unwrap() {
@@ -100,27 +107,16 @@ fn a_board_of_another_protocol_version_is_named() {
         },
         None,
     );
-    let (ok, err) = board(&path, &["hello"]);
+    let outcome = board(&path, &["hello"]);
     stop.store(true, Ordering::Relaxed);
-    assert!(!ok);
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(
-        err.contains(&format!(
-            "the board speaks protocol {other}, this host speaks {PROTOCOL_VERSION}"
-        )),
-        "{err}"
+    failed_in_one_line(
+        outcome,
+        &format!("the board speaks protocol {other}, this host speaks {PROTOCOL_VERSION}"),
     );
 }
 
 #[test]
 fn a_board_that_repeats_itself_or_sends_stray_frames_is_timed_out() {
-    let hello = |msg: &HostMessage| match msg {
-        HostMessage::Hello { .. } => vec![BoardMessage::Hello {
-            version: PROTOCOL_VERSION,
-            max_samples: 2000,
-        }],
-        _ => vec![],
-    };
     // The same progress frame over and over: a job that does not advance.
     let stuck = BoardMessage::Progress {
         stage: JobStage::Refine,
@@ -137,12 +133,16 @@ fn a_board_that_repeats_itself_or_sends_stray_frames_is_timed_out() {
         (stray, ["params"]),
     ] {
         let frame = flood.clone();
-        let (path, stop, _slave) = fake_board(hello, Some(Box::new(move || frame.clone())));
-        let (ok, err) = board(&path, &args);
+        // A board that greets, and answers no request: only its flood comes back.
+        let hello_only = |msg: &HostMessage| match msg {
+            HostMessage::Hello { .. } => plain_reply(msg),
+            _ => vec![],
+        };
+        let (path, stop, _slave) = fake_board(hello_only, Some(Box::new(move || frame.clone())));
+        let outcome = board(&path, &args);
         stop.store(true, Ordering::Relaxed);
-        assert!(!ok, "{flood:?}");
-        assert_eq!(err.trim_end().lines().count(), 1, "{flood:?}: {err}");
-        assert!(err.contains("no answer"), "{flood:?}: {err}");
+        eprintln!("flood {flood:?}");
+        failed_in_one_line(outcome, "no answer");
     }
 }
 
@@ -164,10 +164,6 @@ fn frames_that_arrive_in_one_read_are_all_decoded() {
     };
     let (path, stop, _slave) = fake_board(
         move |msg| match msg {
-            HostMessage::Hello { .. } => vec![BoardMessage::Hello {
-                version: PROTOCOL_VERSION,
-                max_samples: 2000,
-            }],
             HostMessage::Commission { .. } => vec![
                 BoardMessage::Progress {
                     stage: JobStage::Experiment,
@@ -178,7 +174,7 @@ fn frames_that_arrive_in_one_read_are_all_decoded() {
                 },
                 BoardMessage::Identified(report.clone()),
             ],
-            _ => vec![],
+            other => plain_reply(other),
         },
         None,
     );
@@ -195,10 +191,6 @@ fn ctrl_c_during_a_job_aborts_it_on_the_board() {
     let started = job_started.clone();
     let (path, stop, _slave) = fake_board(
         move |msg| match msg {
-            HostMessage::Hello { .. } => vec![BoardMessage::Hello {
-                version: PROTOCOL_VERSION,
-                max_samples: 2000,
-            }],
             HostMessage::Commission { .. } => {
                 started.store(true, Ordering::Relaxed);
                 vec![]
@@ -207,7 +199,7 @@ fn ctrl_c_during_a_job_aborts_it_on_the_board() {
                 seen.store(true, Ordering::Relaxed);
                 vec![BoardMessage::Aborted]
             }
-            _ => vec![],
+            other => plain_reply(other),
         },
         // A job that advances forever.
         Some(Box::new({
@@ -239,14 +231,9 @@ fn ctrl_c_during_a_job_aborts_it_on_the_board() {
     let pid = child.id().to_string();
     let status = Command::new("kill").args(["-INT", &pid]).status().unwrap();
     assert!(status.success());
-    let (ok, err) = wait(child, &["commission"]);
+    let outcome = wait(child, &["commission"]);
     stop.store(true, Ordering::Relaxed);
-    assert!(!ok);
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(
-        err.contains("interrupted: the board aborted its job"),
-        "{err}"
-    );
+    failed_in_one_line(outcome, "interrupted: the board aborted its job");
     assert!(asked_to_abort.load(Ordering::Relaxed));
 }
 
@@ -310,9 +297,7 @@ fn a_board_that_resets_mid_job_ends_the_host_in_one_line() {
         },
         None,
     );
-    let (ok, err) = board(&path, &["commission"]);
+    let outcome = board(&path, &["commission"]);
     stop.store(true, Ordering::Relaxed);
-    assert!(!ok);
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(err.contains("no answer from the board"), "{err}");
+    failed_in_one_line(outcome, "no answer from the board");
 }

@@ -92,20 +92,19 @@ pub enum Escalation {
     /// None: the fit is final.
     None,
     /// Within a board's memory (the short FFO's population): the short FFO run 5 and then
-    /// 25 times as long (about 1,000 and 3,400 evaluations), each with other random
-    /// numbers, then least squares from its best members.
+    /// 25 times as long (1,296 and 6,416 evaluations), each with other random numbers, then
+    /// least squares from its best members.
     Board,
-    /// The host's: an FFO of the seed's population for 20 iterations (about 2,000
-    /// evaluations), then the seed's whole FFO (40,100), both with the soil step towards
-    /// the best, then least squares from their best members.
+    /// The host's: an FFO of the seed's population for 20 iterations (4,100 evaluations),
+    /// then the seed's whole FFO (40,100), both with the soil step towards the best, then
+    /// least squares from their best members.
     Host,
 }
 
 /// When [`identify_from`] runs its global search (the FFO).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SearchWhen {
-    /// Always, seeded with the start (the paper's FFO, and the wider searches of an
-    /// escalation).
+    /// Always, seeded with the start (the paper's FFO).
     Always,
     /// Only when refining the start first does not reach the measured noise floor (both
     /// pipelines: saves most evaluations, and a fit left above the floor escalates).
@@ -132,8 +131,8 @@ impl IdentifyConfig {
         }
     }
 
-    /// The pipeline for a drive board: as [`IdentifyConfig::default_pipeline`], but the FFO
-    /// only runs when refining the equation-error start does not reach the noise floor.
+    /// The pipeline for a drive board: as [`IdentifyConfig::default_pipeline`], but its
+    /// escalation stays within a board's memory ([`Escalation::Board`]).
     pub fn board(seed: u64) -> Self {
         IdentifyConfig {
             escalation: Escalation::Board,

@@ -172,3 +172,23 @@ fn parameters_pinned_with_current_lie_within_three_deviations_99_percent() {
         "{within} of {pinned}"
     );
 }
+
+#[test]
+fn escalations_widen_within_their_memory_and_end() {
+    // Evaluations of each wider search: population x (1 + 2 iterations) (seed Eq. 8-16 with
+    // the soil step): the board's 16 members for 40 and 200 iterations, the host's 100 for
+    // 20 and 200. Within the board's population capacity, and two steps at most.
+    let cost = |cfg: &IdentifyConfig, step| cfg.wider(step).map(|(ffo, _)| ffo.evaluations());
+    let board = IdentifyConfig::board(1);
+    assert_eq!(cost(&board, 0), Some(1_296));
+    assert_eq!(cost(&board, 1), Some(6_416));
+    assert_eq!(cost(&board, 2), None);
+    assert!(board.wider(1).unwrap().0.population() <= crate::capacity::MAX_POPULATION);
+    let host = IdentifyConfig::default_pipeline(1);
+    assert_eq!(cost(&host, 0), Some(4_100));
+    assert_eq!(cost(&host, 1), Some(40_100));
+    assert_eq!(cost(&IdentifyConfig::paper_faithful(1), 0), None);
+    // Each wider search draws other random numbers than the pipeline's own.
+    assert_ne!(board.wider(0).unwrap().1, board.seed);
+    assert_ne!(board.wider(0).unwrap().1, board.wider(1).unwrap().1);
+}

@@ -82,15 +82,15 @@ pub fn widen(
         let Some(std) = certainty.std.filter(|_| certainty.pinned) else {
             continue;
         };
-        let Some(free) = space.free().iter().find(|f| f.id == certainty.id) else {
+        let Some((k, free)) = space
+            .free()
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.id == certainty.id)
+        else {
             continue;
         };
         let (lo, hi) = spec.bounds[certainty.id.index()];
-        let k = space
-            .free()
-            .iter()
-            .position(|f| f.id == certainty.id)
-            .expect("a certainty per free parameter");
         if farthest[k] > STEPS * f64::from(std) {
             certainty.pinned = false;
             certainty.std = None;

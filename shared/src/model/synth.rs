@@ -111,25 +111,24 @@ impl TableOneCase {
             vec![0.0; samples],
             vec![0.0; samples],
         );
-        // Noise-free first, to scale the noise to 1 % of the peak signals.
-        let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, y| m.max(y.abs()));
-        let mut noise = Noise::default();
-        for (noise_seed, scale) in [(0, false), (seed ^ 0x5eed, true)] {
-            if scale {
-                noise = Noise {
-                    omega: 0.01 * peak(&omega),
-                    current: 0.01 * peak(&current),
-                };
-            }
+        let mut run = |noise: Noise, noise_seed: u64, omega: &mut [f32], current: &mut [f32]| {
             let b = Buffers {
                 v: &mut v,
                 tl: &mut tl,
-                omega: &mut omega,
-                current: &mut current,
+                omega,
+                current,
             };
             synthesize(&truth, &exp, dt, noise, noise_seed, None, b)
                 .expect("Table 1 motors simulate");
-        }
+        };
+        // Noise-free first, to scale the noise to 1 % of the peak signals.
+        run(Noise::default(), 0, &mut omega, &mut current);
+        let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, y| m.max(y.abs()));
+        let noise = Noise {
+            omega: 0.01 * peak(&omega),
+            current: 0.01 * peak(&current),
+        };
+        run(noise, seed ^ 0x5eed, &mut omega, &mut current);
         TableOneCase {
             truth,
             dt,
