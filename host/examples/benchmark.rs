@@ -113,7 +113,11 @@ fn median(mut x: Vec<f64>) -> f64 {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let motors: u64 = args.iter().find_map(|a| a.parse().ok()).unwrap_or(50);
+    let motors: u64 = args
+        .iter()
+        .find_map(|a| a.parse().ok())
+        .unwrap_or(50)
+        .max(1);
     let skip_paper = args.iter().any(|a| a == "--skip-paper");
     let cases: Vec<TableOneCase> = (1..=motors)
         .map(|seed| TableOneCase::new(seed, SAMPLES))

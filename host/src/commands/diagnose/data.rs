@@ -10,8 +10,9 @@ use motor_id_shared::fit::objective::{Cost, Objective};
 use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::{ModelParams, ParamId};
 
-/// How many times worse (each over its noise) than the training records a held-out record
-/// must be predicted before it is reported as likely of another set-up.
+/// How many times worse (each over its noise) than the training records, or than the noise
+/// when those fit below it, a held-out record must be predicted before it is reported as
+/// likely of another set-up.
 pub const FOREIGN_RATIO: f32 = 20.0;
 
 /// One record's baseline residual and what the model says about its operating point.

@@ -20,7 +20,8 @@ pub struct DiagnoseReport {
     pub schema_version: u32,
     /// The model without effects.
     pub baseline: Baseline,
-    /// Every effect of the catalogue added to the baseline, best held-out RMSE first.
+    /// Every effect of the catalogue added to the baseline, best held-out misfit of both
+    /// channels (`holdout_joint`) first.
     pub effects: Vec<EffectFit>,
     /// Which effect, if any, and how much it helps.
     pub verdict: Verdict,
@@ -326,7 +327,7 @@ impl DiagnoseReport {
         for line in &self.where_.summary {
             s += &format!("  {line}\n");
         }
-        s += "effects, best held-out rmse first:\n";
+        s += "effects, best held-out misfit first:\n";
         for e in &self.effects {
             s += &format!(
                 "  {:<20} train {:.4}  holdout {:.4}{}\n",

@@ -113,7 +113,7 @@ fn text_reads_the_report() {
             "baseline: train rmse 0.6123, holdout rmse 0.7000 rad/s (holdout noise 0.2500)",
             "where:",
             "  50 % of the misfit lies in reverse rotation",
-            "effects, best held-out rmse first:",
+            "effects, best held-out misfit first:",
             "  coulomb_friction     train 0.5000  holdout 0.3000  significant",
             "  sensor_delay         train 0.5000  holdout 0.6900",
             "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s (94 % of the misfit \

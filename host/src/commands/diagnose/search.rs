@@ -337,7 +337,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     // final fit itself.
     let mut kept = Vec::new();
     for (k, (effect, s)) in chain.into_iter().enumerate() {
-        if k + 1 < set.len() && set.get(k) == Some(&effect) && forward[..=k] == set[..=k] {
+        if k + 1 < set.len() && forward[..=k] == set[..=k] {
             kept.push((effect, s));
         } else {
             break;

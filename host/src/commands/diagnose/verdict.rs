@@ -1,6 +1,6 @@
 //! The significance rule: is an effect real, or the least-bad way to fit noise?
 //!
-//! An effect is accepted only when both hold:
+//! An effect is accepted only when all of these hold:
 //! - on the training records, the Bayesian information criterion falls by more than 10
 //!   (`n ln(SSE_e / SSE_0) + k ln n`, with `n` residuals and `k` added parameters): strong
 //!   evidence, where fitting noise with `k` extra parameters lowers `n ln SSE` by about `k`
