@@ -177,8 +177,22 @@ impl Data {
 
     /// The residual traces of `p` on every record (train and holdout).
     pub fn traces(&self, p: &ModelParams) -> Result<Vec<Trace>> {
+        self.traces_of(&[("train", &self.train), ("holdout", &self.holdout)], p)
+    }
+
+    /// The residual traces of `p` on the held-out records only.
+    pub fn holdout_traces(&self, p: &ModelParams) -> Result<Vec<Trace>> {
+        self.traces_of(&[("holdout", &self.holdout)], p)
+    }
+
+    /// The residual traces of `p` on each named set of records.
+    fn traces_of(
+        &self,
+        sets: &[(&'static str, &Vec<OwnedRecord>)],
+        p: &ModelParams,
+    ) -> Result<Vec<Trace>> {
         let mut out = Vec::new();
-        for (set, recs) in [("train", &self.train), ("holdout", &self.holdout)] {
+        for &(set, recs) in sets {
             let borrowed = OwnedRecord::as_records(recs, self.with_current);
             let obj = Objective::new(&borrowed).map_err(|e| anyhow!("{e}"))?;
             for (k, r) in recs.iter().enumerate() {

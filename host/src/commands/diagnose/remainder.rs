@@ -85,11 +85,7 @@ pub fn remainder(
     if !unexplained(rmse, floor_rmse) {
         return Ok(None);
     }
-    let traces: Vec<Trace> = data
-        .traces(p)?
-        .into_iter()
-        .filter(|t| t.set == "holdout")
-        .collect();
+    let traces: Vec<Trace> = data.holdout_traces(p)?;
     let found = regimes::analyse(&traces, noise);
     let span = worst_span(&traces);
     let excess = (rmse * rmse - floor_rmse * floor_rmse).max(0.0).sqrt();
