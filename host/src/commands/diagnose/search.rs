@@ -132,6 +132,18 @@ impl Context<'_> {
         })
     }
 
+    /// `effect` added to the model `model` fitted at `at` ([`fit_effect`]), and scored.
+    fn add(&self, model: &ProblemSpec, effect: Effect, at: &ModelParams) -> Result<Scored> {
+        let s = with_effect(model, effect, at, &self.scales, self.ripple.order)?;
+        self.data.score(fit_effect(
+            self.data,
+            &self.quiet,
+            &s,
+            effect,
+            &self.ripple,
+        )?)
+    }
+
     /// The model of `set` fitted on the training records from `start`, and scored.
     fn refit(&self, set: &[Effect], start: &ModelParams) -> Result<Scored> {
         let spec = self.spec_of(set, start)?;
@@ -210,8 +222,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             k + 1,
             usable.len()
         ));
-        let s = with_effect(&spec, effect, &base_params, &scales, order)?;
-        data.score(fit_effect(data, &quiet, &s, effect, &cx.ripple)?)
+        cx.add(&spec, effect, &base_params)
     });
     for (effect, f) in usable.iter().zip(fits) {
         scored.push((*effect, f?));
@@ -266,8 +277,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
                 effect.name(),
                 names.join(" + ")
             ));
-            let s = with_effect(&model, effect, &params, &scales, order)?;
-            data.score(fit_effect(data, &quiet, &s, effect, &cx.ripple)?)
+            cx.add(&model, effect, &params)
         });
         for (effect, f) in candidates.iter().zip(fits) {
             let f = f?;
