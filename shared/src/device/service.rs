@@ -265,9 +265,10 @@ impl<'s, const N: usize> Service<'s, N> {
             ControlFlow::Continue(())
         });
         hw.watchdog.feed();
-        let end = match result {
+        // By reference: the identification is not moved into a second copy on this frame.
+        let end = match &result {
             _ if aborted => JobEnd::Aborted,
-            Ok(id) => return deliver(&id, store, &mut hw.params, &mut hw.link),
+            Ok(id) => return deliver(id, store, &mut hw.params, &mut hw.link),
             Err(crate::Error::InvalidConfig) => JobEnd::Refused(Refusal::PipelineTooLarge),
             Err(_) => JobEnd::Refused(Refusal::InvalidRecord),
         };

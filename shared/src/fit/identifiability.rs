@@ -159,9 +159,10 @@ pub fn analyse(
     u: &[f32],
     cost: &Cost,
 ) -> Result<Identifiability, Error> {
-    let ne = objective
-        .normal_equations(space, u, STEP, true)
-        .ok_or(Error::NoFiniteCandidate)?;
+    let mut ne = NormalEquations::EMPTY;
+    if !objective.normal_equations(space, u, STEP, true, &mut ne) {
+        return Err(Error::NoFiniteCandidate);
+    }
     Ok(interpret(&ne, space, u, cost))
 }
 

@@ -282,9 +282,54 @@ pub fn identify_from(
     }
     let objective = Objective::new(records)?;
     let space = Space::new(spec, cfg.log_scale)?;
+    let searched = pipeline(records, spec, cfg, initial, &objective, &space, progress)?;
+    let mut result = conclude(&objective, &space, searched);
+    // The profile check works on the result in place (never a second copy of it), beside
+    // the analysis's frame rather than on it. It is entered only when it has work (a flat
+    // direction beside a pinned parameter).
+    if let (Some(lm), true, Ok(r)) = (&cfg.refine, cfg.profile_check, &mut result) {
+        if profile::applies(&r.identifiability) {
+            profile::widen(
+                &mut r.identifiability,
+                &objective,
+                &space,
+                &r.params,
+                &r.cost,
+                lm,
+            );
+            r.analysis_evaluations = r.identifiability.evaluations;
+        }
+    }
+    result
+}
+
+/// What the pipeline leaves: its best point and the run's counters.
+struct Searched {
+    u: [f32; MAX_FREE],
+    cost: Cost,
+    evaluations: u32,
+    trace: heapless::Vec<TracePoint, TRACE_CAPACITY>,
+    completed: bool,
+    widened: u32,
+}
+
+/// The pipeline of [`identify_from`]: refinement of the start, the search when it is
+/// called for, then the escalation's wider searches. A frame of its own (the run's state),
+/// gone before [`conclude`] builds the result: on a board, only one of the two is on the
+/// stack under the refinement's (README, footprint).
+#[inline(never)]
+fn pipeline(
+    records: &[Record],
+    spec: &ProblemSpec,
+    cfg: &IdentifyConfig,
+    initial: Option<&ModelParams>,
+    objective: &Objective,
+    space: &Space,
+    progress: impl FnMut(&Progress) -> ControlFlow<()>,
+) -> Result<Searched, Error> {
     let mut run = Run {
-        objective: &objective,
-        space: &space,
+        objective,
+        space,
         cfg,
         ffo: cfg.ffo,
         seed: cfg.seed,
@@ -346,40 +391,39 @@ pub fn identify_from(
         }
     }
     let (u, cost) = run.best.ok_or(Error::NoFiniteCandidate)?;
-    let mut result = Identification {
-        params: space.params(&u[..dim]),
+    Ok(Searched {
+        u,
         cost,
         evaluations: run.evaluations,
-        analysis_evaluations: 0,
         trace: run.trace,
-        identifiability: analyse(&objective, &space, &u[..dim], &cost)?,
-        sigma_omega: objective.sigma_omega(),
-        sigma_current: objective.sigma_current(),
         completed: run.completed,
         widened: run.widened,
-    };
-    // The profile check works on the result in place: no second copy of the analysis on
-    // this frame, which the whole search's stack stands on. It is entered only when it has
-    // work (a flat direction beside a pinned parameter): its frame (a problem and a space of
-    // its own) would otherwise raise every fit's stack, a full-rank one's too.
-    if let (Some(lm), true, true) = (
-        &cfg.refine,
-        cfg.profile_check,
-        profile::applies(&result.identifiability),
-    ) {
-        profile::widen(
-            &mut result.identifiability,
-            &objective,
-            spec,
-            &space,
-            cfg.log_scale,
-            &result.params,
-            &cost,
-            lm,
-        );
-    }
-    result.analysis_evaluations = result.identifiability.evaluations;
-    Ok(result)
+    })
+}
+
+/// The result at the pipeline's best point, with the identifiability analysis. A frame of
+/// its own (see [`pipeline`]).
+#[inline(never)]
+fn conclude(
+    objective: &Objective,
+    space: &Space,
+    searched: Searched,
+) -> Result<Identification, Error> {
+    let dim = space.dim();
+    let (u, cost) = (searched.u, searched.cost);
+    let identifiability = analyse(objective, space, &u[..dim], &cost)?;
+    Ok(Identification {
+        params: space.params(&u[..dim]),
+        cost,
+        evaluations: searched.evaluations,
+        analysis_evaluations: identifiability.evaluations,
+        trace: searched.trace,
+        identifiability,
+        sigma_omega: objective.sigma_omega(),
+        sigma_current: objective.sigma_current(),
+        completed: searched.completed,
+        widened: searched.widened,
+    })
 }
 
 /// A fit this many times better than the one before a wider search counts as a gain; less,

@@ -49,6 +49,22 @@ pub struct NormalEquations {
     pub simulations: u32,
 }
 
+impl NormalEquations {
+    /// Not yet computed: zero sums, an infinite cost, no simulations. The value a caller
+    /// starts from before [`Objective::normal_equations`] fills it in place.
+    pub const EMPTY: NormalEquations = NormalEquations {
+        jtj: [[0.0; MAX_FREE]; MAX_FREE],
+        jtr: [0.0; MAX_FREE],
+        cost: Cost {
+            sse: f64::INFINITY,
+            residuals: 0,
+            rmse_omega: f32::INFINITY,
+            rmse_current: None,
+        },
+        simulations: 0,
+    };
+}
+
 /// The objective over a set of records.
 #[derive(Clone, Copy, Debug)]
 pub struct Objective<'r, 'a> {
@@ -60,7 +76,9 @@ pub struct Objective<'r, 'a> {
 }
 
 impl<'r, 'a> Objective<'r, 'a> {
-    /// Validate the records and measure their noise.
+    /// Validate the records and measure their noise. Not inlined: its temporaries stay off
+    /// the frame of an identification (a board's stack).
+    #[inline(never)]
     pub fn new(records: &'r [Record<'a>]) -> Result<Self, Error> {
         if records.is_empty() {
             return Err(Error::NoRecords);
@@ -262,14 +280,30 @@ impl<'r, 'a> Objective<'r, 'a> {
 
     /// Normal equations at unit point `u` by finite differences of step `h` in unit
     /// coordinates: forward (dim + 1 evaluations) or central (2 dim + 1), with the initial
-    /// speeds projected out (variable projection, see [`RecordSums`]).
+    /// speeds projected out (variable projection, see [`RecordSums`]). Written into `out`,
+    /// which is left untouched when the point cannot be simulated or a sum is not finite
+    /// (false): in place, so that no second copy of the equations sits on a refinement's
+    /// stack (the board's stack budget, README).
     pub fn normal_equations(
         &self,
         space: &Space,
         u: &[f32],
         h: f32,
         central: bool,
-    ) -> Option<NormalEquations> {
+        out: &mut NormalEquations,
+    ) -> bool {
+        self.normal_equations_sums(space, u, h, central, out)
+            .is_some()
+    }
+
+    fn normal_equations_sums(
+        &self,
+        space: &Space,
+        u: &[f32],
+        h: f32,
+        central: bool,
+        out: &mut NormalEquations,
+    ) -> Option<()> {
         let dim = space.dim();
         let nominal = space.params(u);
         // Perturbed points: +h (and -h) per coordinate, kept inside the cube, as (coordinate,
@@ -350,19 +384,20 @@ impl<'r, 'a> Objective<'r, 'a> {
             sums.finish_into(w, dim, &mut totals);
         }
         let cost = self.cost_of(&totals)?;
-        let (jtj, jtr) = (totals.jtj, totals.jtr);
+        let (jtj, jtr) = (&totals.jtj, &totals.jtr);
         let finite = jtr[..dim].iter().all(|x| x.is_finite())
             && jtj[..dim]
                 .iter()
                 .all(|row| row[..dim].iter().all(|x| x.is_finite()));
+        if !finite {
+            return None;
+        }
+        out.jtj = *jtj;
+        out.jtr = *jtr;
+        out.cost = cost;
         // One evaluation per distinct parameter set, over all records (as the FFO counts).
-        let simulations = 1 + points.len() as u32;
-        finite.then_some(NormalEquations {
-            jtj,
-            jtr,
-            cost,
-            simulations,
-        })
+        out.simulations = 1 + points.len() as u32;
+        Some(())
     }
 }
 

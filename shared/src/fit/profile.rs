@@ -35,8 +35,9 @@ use crate::capacity::MAX_FREE;
 use crate::fit::identifiability::{Identifiability, PINNED_STD};
 use crate::fit::objective::{Cost, Objective};
 use crate::fit::refine::{levenberg_marquardt, LmConfig};
-use crate::fit::space::{ProblemSpec, Space};
+use crate::fit::space::Space;
 use crate::model::params::ModelParams;
+use crate::param_id::ParamId;
 use core::ops::ControlFlow;
 
 /// How many local standard deviations the profile steps to each side.
@@ -56,18 +57,15 @@ pub fn applies(id: &Identifiability) -> bool {
 }
 
 /// Widen the deviations of `id`'s pinned parameters by the profile check (module doc), for
-/// the fit `at` of `spec` with cost `cost`, searched in `space` (log-scaled where
-/// `log_scale`); the evaluations it spends are added to `id.evaluations`.
-/// Not inlined, nor the walk: their frames (a profile's problem and space) are on the stack
-/// only while they run, not throughout the identification's.
-#[allow(clippy::too_many_arguments)]
+/// the fit `at` with cost `cost`, searched in `space` (its bounds and scales); the
+/// evaluations it spends are added to `id.evaluations`.
+/// Not inlined, nor the walk and the profiles: their frames are on the stack only while
+/// they run, one at a time, not throughout the identification's.
 #[inline(never)]
 pub fn widen(
     id: &mut Identifiability,
     objective: &Objective,
-    spec: &ProblemSpec,
     space: &Space,
-    log_scale: bool,
     at: &ModelParams,
     cost: &Cost,
     lm: &LmConfig,
@@ -90,7 +88,7 @@ pub fn widen(
         else {
             continue;
         };
-        let (lo, hi) = spec.bounds[certainty.id.index()];
+        let (lo, hi) = (free.lo, free.hi);
         if farthest[k] > STEPS * f64::from(std) {
             certainty.pinned = false;
             certainty.std = None;
@@ -103,24 +101,12 @@ pub fn widen(
                 // The bound ends the valley on this side before the step.
                 continue;
             }
-            let mut fixed = *spec;
-            fixed.base = *at;
-            // A profile that cannot be set up (a value the parameter may not take) leaves
-            // the local figure as it is.
-            if fixed.fix(certainty.id, value as f32).is_err() {
-                continue;
-            }
-            let Ok(profile) = Space::new(&fixed, log_scale) else {
+            let Some((rise, evaluations)) =
+                profile_rise(objective, space, at, certainty.id, value, cost, sigma2, lm)
+            else {
                 continue;
             };
-            let start = profile.unit(&fixed.base);
-            let Some(r) = levenberg_marquardt(objective, &profile, &start, lm, &mut |_| {
-                ControlFlow::Continue(())
-            }) else {
-                continue;
-            };
-            id.evaluations += r.evaluations;
-            let rise = ((r.cost.sse - cost.sse) / sigma2).max(1e-12);
+            id.evaluations += evaluations;
             widest = widest.max(STEPS * f64::from(std) / libm::sqrt(rise));
         }
         if widest > f64::from(std) {
@@ -129,6 +115,32 @@ pub fn widen(
             certainty.std = certainty.pinned.then_some(widest as f32);
         }
     }
+}
+
+/// The profile at one side: `id` fixed at `value`, the other free parameters of `space`
+/// refitted by least squares from `at`; the rise of the cost over `cost` in units of the
+/// residual variance `sigma2`, and the evaluations spent. None when the profile cannot be
+/// set up (a value the parameter may not take) or not simulated: the local figure stands.
+/// A frame of its own (the profile's space), beside the walk's rather than on top of it.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn profile_rise(
+    objective: &Objective,
+    space: &Space,
+    at: &ModelParams,
+    id: ParamId,
+    value: f64,
+    cost: &Cost,
+    sigma2: f64,
+    lm: &LmConfig,
+) -> Option<(f64, u32)> {
+    let profile = space.fixing(at, id, value as f32).ok()?;
+    let start = profile.unit(at);
+    let r = levenberg_marquardt(objective, &profile, &start, lm, &mut |_| {
+        ControlFlow::Continue(())
+    })?;
+    let rise = ((r.cost.sse - cost.sse) / sigma2).max(1e-12);
+    Some((rise, r.evaluations))
 }
 
 /// The valley walk (module doc): for every free parameter, its largest distance from the
@@ -148,14 +160,13 @@ fn walk_the_valley(
     let free = space.free();
     let u0 = space.unit(at);
     let mut farthest = [0.0f64; MAX_FREE];
-    let directions: heapless::Vec<[f32; MAX_FREE], MAX_FREE> =
-        id.unpinned.iter().map(|d| d.components).collect();
-    for components in &directions {
+    let mut evaluations = 0;
+    for direction in &id.unpinned {
         // The direction in unit coordinates (natural = per_unit * unit).
         let mut du = [0.0f32; MAX_FREE];
         for i in 0..dim {
-            du[i] =
-                (f64::from(components[i]) / free[i].natural_per_unit(at.get(free[i].id))) as f32;
+            du[i] = (f64::from(direction.components[i])
+                / free[i].natural_per_unit(at.get(free[i].id))) as f32;
         }
         for sign in [-1.0f32, 1.0] {
             // How far along `sign du` the box allows.
@@ -181,17 +192,17 @@ fn walk_the_valley(
                 }) else {
                     continue;
                 };
-                id.evaluations += r.evaluations;
+                evaluations += r.evaluations;
                 if (r.cost.sse - cost.sse) / sigma2 > VALLEY_FIT {
                     continue;
                 }
-                let p = space.params(&r.u[..dim]);
                 for (i, f) in free.iter().enumerate() {
-                    let d = f64::from((p.get(f.id) - at.get(f.id)).abs());
+                    let d = f64::from((f.value(r.u[i]) - at.get(f.id)).abs());
                     farthest[i] = farthest[i].max(d);
                 }
             }
         }
     }
+    id.evaluations += evaluations;
     farthest
 }

@@ -8,7 +8,7 @@
 
 use crate::capacity::MAX_FREE;
 use crate::fit::linalg::{cholesky_solve, Vector};
-use crate::fit::objective::{Cost, Objective};
+use crate::fit::objective::{Cost, NormalEquations, Objective};
 use crate::fit::space::Space;
 use core::ops::ControlFlow;
 
@@ -83,7 +83,10 @@ pub fn levenberg_marquardt(
     // normal equations nor a central phase follow (together they cost half of the board
     // pipeline's evaluations and changed no result measurably: README, benchmark).
     let mut central = false;
-    let mut ne = objective.normal_equations(space, &u[..dim], cfg.h, central)?;
+    let mut ne = NormalEquations::EMPTY;
+    if !objective.normal_equations(space, &u[..dim], cfg.h, central, &mut ne) {
+        return None;
+    }
     let mut evaluations = ne.simulations;
     let mut lambda = cfg.lambda0;
     let mut iterations = 0;
@@ -124,13 +127,10 @@ pub fn levenberg_marquardt(
             }
             central = true;
             lambda = cfg.lambda0;
-            match objective.normal_equations(space, &u[..dim], cfg.h, central) {
-                Some(n) => {
-                    evaluations += n.simulations;
-                    ne = n;
-                }
-                None => break,
+            if !objective.normal_equations(space, &u[..dim], cfg.h, central, &mut ne) {
+                break;
             }
+            evaluations += ne.simulations;
         }
     }
     Some(LmResult {
@@ -161,7 +161,7 @@ fn lm_step(
     objective: &Objective,
     space: &Space,
     u: &mut [f32; MAX_FREE],
-    ne: &mut crate::fit::objective::NormalEquations,
+    ne: &mut NormalEquations,
     lambda: &mut f64,
     cfg: &LmConfig,
     central: bool,
@@ -202,14 +202,12 @@ fn lm_step(
                 }
                 // The point moves only with its normal equations, so that `u` and `ne.cost`
                 // always belong together.
-                return match objective.normal_equations(space, &trial[..dim], cfg.h, central) {
-                    Some(n) => {
-                        evaluations += n.simulations;
-                        *u = trial;
-                        *ne = n;
-                        StepOutcome::Improved { evaluations }
-                    }
-                    None => StepOutcome::Failed { evaluations },
+                return if objective.normal_equations(space, &trial[..dim], cfg.h, central, ne) {
+                    evaluations += ne.simulations;
+                    *u = trial;
+                    StepOutcome::Improved { evaluations }
+                } else {
+                    StepOutcome::Failed { evaluations }
                 };
             }
             _ => *lambda *= 4.0,
@@ -225,7 +223,7 @@ fn lm_step(
 /// own: its matrices are not on the stack while the normal equations are built.)
 #[inline(never)]
 fn projected_step(
-    ne: &crate::fit::objective::NormalEquations,
+    ne: &NormalEquations,
     u: &[f32; MAX_FREE],
     lambda: f64,
     max_diag: f64,

@@ -146,7 +146,9 @@ pub struct Space {
 
 impl Space {
     /// Build the space of `spec`. With `log_scale`, parameters whose lower bound is positive
-    /// are searched in log scale; otherwise every parameter is linear (seed Eq. 9).
+    /// are searched in log scale; otherwise every parameter is linear (seed Eq. 9). Not
+    /// inlined: its temporaries stay off the frame of an identification (a board's stack).
+    #[inline(never)]
     pub fn new(spec: &ProblemSpec, log_scale: bool) -> Result<Space, Error> {
         let mut free = heapless::Vec::new();
         for id in ParamId::ALL {
@@ -173,6 +175,24 @@ impl Space {
             base: spec.base,
             free,
         })
+    }
+
+    /// The space of a profile ([`crate::fit::profile`]): `id` fixed at `value` (within its
+    /// physical range, as [`ProblemSpec::fix`] checks), the other free parameters as here,
+    /// with their bounds and scales, every fixed one as in `at`.
+    pub fn fixing(&self, at: &ModelParams, id: ParamId, value: f32) -> Result<Space, Error> {
+        let (lo, hi) = id.physical_range();
+        if !value.is_finite() || value < lo || value > hi {
+            return Err(Error::InvalidFixedValue(id));
+        }
+        let mut free = self.free.clone();
+        free.retain(|f| f.id != id);
+        if free.is_empty() {
+            return Err(Error::NothingToIdentify);
+        }
+        let base = at.with(id, value);
+        base.validate()?;
+        Ok(Space { base, free })
     }
 
     /// Number of free parameters.
