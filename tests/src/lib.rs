@@ -385,8 +385,8 @@ impl Qemu {
     /// with a reply timeout of 30 s, far above what the emulated board needs on a quiet
     /// machine (the CLI's default 10 s is for a real board, which no host load slows down;
     /// a busy board answers Busy at every iteration of its job, which restarts the wait).
-    /// Not longer: QEMU's pseudo-terminal sometimes drops a reply between two commands,
-    /// and the host asks again only after the timeout.
+    /// (QEMU's pseudo-terminal drops what the board sends until it has noticed a new
+    /// command's open port, within a second: the host repeats its `Hello` every 0.5 s.)
     pub fn board_args<'a>(&'a self, args: &[&'a str]) -> Vec<&'a str> {
         let mut all = vec!["board", "--port", self.pty.as_str(), "--timeout", "30"];
         all.extend_from_slice(args);

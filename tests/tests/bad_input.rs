@@ -297,11 +297,17 @@ fn malformed_option_values_are_usage_errors_that_name_the_option() {
 #[test]
 fn board_timeouts_out_of_range_are_refused_with_one_line_before_any_port_is_opened() {
     // 1e19, 1e300 and 2e18 s once overflowed the host's clock (a panic); the port does not
-    // exist, so a refusal that names the timeout was made before opening it.
-    for t in ["1e19", "1e300", "2e18", "86401", "0", "-1", "NaN", "inf"] {
+    // exist, so a refusal that names the timeout was made before opening it. A value out of
+    // range is malformed input: a usage error, status 2 (docs/CONTRACTS.md).
+    for t in [
+        "1e19", "1e300", "2e18", "86401", "0", "-1", "NaN", "inf", "ten",
+    ] {
         let timeout = format!("--timeout={t}");
-        let err = run_err(&["board", "--port", "/nonexistent/port", &timeout, "hello"]);
-        assert!(err.contains("--timeout must be"), "{t}: {err}");
+        let err = run_usage_err(&["board", "--port", "/nonexistent/port", &timeout, "hello"]);
+        assert!(
+            err.contains("--timeout") && err.contains("at most 86400"),
+            "{t}: {err}"
+        );
     }
 }
 

@@ -252,6 +252,45 @@ fn plain_reply(msg: &HostMessage) -> Vec<BoardMessage> {
 }
 
 #[test]
+fn a_first_reply_lost_on_a_port_just_opened_costs_no_timeout() {
+    // QEMU's pseudo-terminal drops what the board sends until it has noticed the host's
+    // open port (within a second); a board that resets when its port is opened is not
+    // listening yet. This board ignores the first Hello; the host asks again well before
+    // its (here 30 s) timeout, and the exchange goes on.
+    let hellos = Arc::new(std::sync::Mutex::new(Vec::new()));
+    let seen = hellos.clone();
+    let (path, stop, _slave) = fake_board(
+        move |msg| {
+            let mut seen = seen.lock().unwrap();
+            if matches!(msg, HostMessage::Hello { .. }) {
+                seen.push(std::time::Instant::now());
+                if seen.len() == 1 {
+                    return vec![];
+                }
+            }
+            plain_reply(msg)
+        },
+        None,
+    );
+    let child = Command::new(motor_id())
+        .args(["board", "--port", &path, "--timeout", "30", "-q", "params"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (ok, err) = wait(child, &["params"]);
+    stop.store(true, Ordering::Relaxed);
+    assert!(ok, "{err}");
+    let hellos = hellos.lock().unwrap();
+    assert!(hellos.len() >= 2, "{} Hello(s)", hellos.len());
+    let gap = hellos[1] - hellos[0];
+    assert!(
+        gap < Duration::from_secs(10),
+        "the host asked again after {gap:?}, not well within its 30 s timeout"
+    );
+}
+
+#[test]
 fn duplicated_and_delayed_replies_are_taken_once() {
     // Every reply twice: the host takes the first and is not confused by the second.
     let (path, stop, _slave) = fake_board(

@@ -33,7 +33,7 @@ pub struct BoardArgs {
     /// Seconds to wait for each reply, at most a day (progress frames that show the job
     /// advancing restart the clock); a board busy with a job (commissioning at power-up) is
     /// waited for up to six times as long.
-    #[arg(long, global = true, default_value_t = 10.0)]
+    #[arg(long, global = true, default_value_t = 10.0, value_parser = parse_timeout)]
     pub timeout: f64,
     /// Random seed of identifications.
     #[arg(long, global = true, default_value_t = 1)]
@@ -84,11 +84,6 @@ struct Connection {
 
 impl Connection {
     fn open(a: &BoardArgs) -> Result<Connection> {
-        if !(a.timeout > 0.0 && a.timeout <= MAX_TIMEOUT_S) {
-            bail!(
-                "--timeout must be a number of seconds above 0 and at most {MAX_TIMEOUT_S} (a day)"
-            );
-        }
         let port = serialport::new(&a.port, a.baud)
             .timeout(Duration::from_millis(20))
             .open()
@@ -150,19 +145,39 @@ impl Connection {
     fn request<T>(
         &mut self,
         msg: &HostMessage,
+        accept: impl FnMut(BoardMessage) -> Option<Result<T>>,
+    ) -> Result<T> {
+        self.request_every(msg, self.timeout, accept)
+    }
+
+    /// As [`Connection::request`], repeating the request every `every` (at most the timeout)
+    /// while nothing comes back, for as long in all as three timeouts (a busy board: up to
+    /// [`BUSY_TIMEOUTS`]). For a request that may be repeated at no cost (`Hello`): a port
+    /// just opened may not pass the first reply on (QEMU's pseudo-terminal drops what the
+    /// board sends until it has noticed the host, within a second; a board that resets when
+    /// its port is opened is not listening yet).
+    fn request_every<T>(
+        &mut self,
+        msg: &HostMessage,
+        every: Duration,
         mut accept: impl FnMut(BoardMessage) -> Option<Result<T>>,
     ) -> Result<T> {
+        let every = every.min(self.timeout);
+        let patience = self.timeout * 3;
+        let started = Instant::now();
         let busy_until = Instant::now() + self.timeout * BUSY_TIMEOUTS;
         let mut last = None;
-        let mut tries = 0;
-        while tries < 3 {
+        let mut busy = false;
+        while started.elapsed() < patience || (busy && Instant::now() < busy_until) {
+            busy = false;
             self.send(msg)?;
             // One deadline per request: replies it does not take (a stray progress frame,
             // say) do not extend it.
-            let deadline = Instant::now() + self.timeout;
+            let deadline = Instant::now() + every;
             loop {
                 match self.receive_until(deadline) {
                     Ok(BoardMessage::Refused(Refusal::Busy)) if Instant::now() < busy_until => {
+                        busy = true;
                         std::thread::sleep(Duration::from_millis(200));
                         break;
                     }
@@ -176,7 +191,6 @@ impl Connection {
                     }
                     Err(e) => {
                         last = Some(e);
-                        tries += 1;
                         break;
                     }
                 }
@@ -186,8 +200,23 @@ impl Connection {
     }
 }
 
+/// `--timeout`: seconds above 0 and at most [`MAX_TIMEOUT_S`] (a usage error otherwise,
+/// exit status 2; a longer one would overflow the deadlines' clock).
+fn parse_timeout(text: &str) -> std::result::Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(t) if t > 0.0 && t <= MAX_TIMEOUT_S => Ok(t),
+        _ => Err(format!(
+            "expected a number of seconds above 0 and at most {MAX_TIMEOUT_S} (a day)"
+        )),
+    }
+}
+
 /// Longest `--timeout` [s].
 const MAX_TIMEOUT_S: f64 = 86_400.0;
+
+/// How often `Hello`, the first request on a port just opened, is repeated while nothing
+/// comes back.
+const HELLO_EVERY: Duration = Duration::from_millis(500);
 
 /// How many `--timeout`s a busy board is waited for.
 const BUSY_TIMEOUTS: u32 = 6;
@@ -200,7 +229,10 @@ fn refused(reply: &BoardMessage) -> Option<Result<()>> {
 }
 
 fn hello(c: &mut Connection) -> Result<u32> {
-    c.request(&HostMessage::Hello { version: PROTOCOL_VERSION }, |reply| match reply {
+    let hello = HostMessage::Hello {
+        version: PROTOCOL_VERSION,
+    };
+    c.request_every(&hello, HELLO_EVERY, |reply| match reply {
         BoardMessage::Hello { version, max_samples } if version == PROTOCOL_VERSION => Some(Ok(max_samples)),
         BoardMessage::Refused(Refusal::VersionMismatch { board: version })
         | BoardMessage::Hello { version, .. } => Some(Err(anyhow!(
