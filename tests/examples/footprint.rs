@@ -9,14 +9,22 @@
 //!   then the board pipeline with Coulomb friction free); the firmware reports the SysTick
 //!   ticks from the request to the result, and for a commissioning also from the drive's
 //!   stop at the end of the experiment (the identification alone).
-//! - Stack high-water mark: the painted stack after that identification (and the power-up
-//!   commissioning before it).
+//! - The worst case of the board's stack: `board identify` of a speed-only record whose
+//!   fit escalates and whose analysis runs the profile check (the motor of issue 13's
+//!   first example, steps at 100 Hz for 20 s): its instructions are informative.
+//! - Stack high-water mark: the painted stack after these jobs (and the power-up
+//!   commissioning before them).
 //! - Flash and static RAM: section sizes of the release ELFs (board and QEMU builds).
 
 use motor_id_tests::{board_record, build_firmware, run_ok, s, Qemu};
 use object::{Object, ObjectSection, SectionFlags};
 use std::path::Path;
 use std::time::Duration;
+
+/// A motor whose speed-only fit at 100 Hz escalates and whose analysis runs the profile
+/// check (a flat direction beside pinned `j` and `kv`): the deepest stack the board reaches.
+const PROFILE_CHECK_MOTOR: &str =
+    "ra=0.6252534,la=0.8401117,j=0.0011193017,b=0.00088091264,kv=1.6004144";
 
 /// SysTick ticks per instruction under `-icount shift=0` (168 MHz, 1 ns per instruction).
 const TICKS_PER_INSTRUCTION: f64 = 0.168;
@@ -69,6 +77,25 @@ fn footprint_line(q: &Qemu) -> impl Fn(&str) -> f64 {
 fn main() {
     let dir = tempfile::tempdir().expect("temporary directory");
     let csv = board_record(dir.path());
+    let speed_only = dir.path().join("speed-only.csv");
+    motor_id_tests::simulate(
+        &speed_only,
+        &[
+            "--motor",
+            PROFILE_CHECK_MOTOR,
+            "--profile",
+            "steps",
+            "--rate",
+            "100",
+            "--duration",
+            "20",
+            "--noise-omega",
+            "0.1",
+            "--seed",
+            "4",
+            "--speed-only",
+        ],
+    );
     let q = Qemu::start_with(&["-icount", "shift=0"]);
     let json = dir.path().join("board.json");
     let board = |args: &[&str]| {
@@ -95,6 +122,7 @@ fn main() {
     let (board_evals, board_m, _) = job(&["identify", s(&csv), "--pipeline", "board"]);
     let (default_evals, default_m, _) = job(&["identify", s(&csv)]);
     let (commission_evals, commission_m, commission_fit_m) = job(&["commission"]);
+    let (speed_evals, speed_m, _) = job(&["identify", s(&speed_only), "--pipeline", "board"]);
     // The targets are the board's own identifications; the other two rows are for scale.
     println!(
         "| instructions, `board identify --pipeline board` (the board's pipeline, five motor parameters, {board_evals} evaluations) | {board_m:.1} M | <= 40 M |"
@@ -107,6 +135,9 @@ fn main() {
     );
     println!(
         "| instructions, `board identify` (the host's default pipeline, {default_evals} evaluations) | {default_m:.1} M | (informative) |"
+    );
+    println!(
+        "| instructions, `board identify --pipeline board` of a speed-only record with escalation and the profile check ({speed_evals} evaluations in the fit) | {speed_m:.1} M | (informative) |"
     );
     println!("| stack high-water mark (power-up commissioning and the jobs above) | {stack} B | <= 8 KB (8,192 B) |");
     for (name, elf) in [
