@@ -486,30 +486,16 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
         let iterations = lm.max_iterations * (self.cfg.restarts + 2);
         let base = self.evaluations;
         let before = self.best_fitness();
-        let mut stop = false;
         let result = levenberg_marquardt(self.objective, self.space, u0, &lm, &mut |lp| {
             self.refine_iterations += 1;
-            let p = Progress {
-                stage: Stage::Refine,
-                iteration: self.refine_iterations,
-                iterations,
-                evaluations: base + lp.evaluations,
-                best: lp.cost.fitness().min(before),
-            };
-            push_trace(
-                &mut self.trace,
-                TracePoint {
-                    evaluations: p.evaluations,
-                    best: p.best,
-                },
-            );
-            let flow = (self.progress)(&p);
-            stop |= flow.is_break();
-            flow
+            self.evaluations = base + lp.evaluations;
+            let best = lp.cost.fitness().min(before);
+            if self.report(Stage::Refine, self.refine_iterations, iterations, best) {
+                ControlFlow::Continue(())
+            } else {
+                ControlFlow::Break(())
+            }
         });
-        if stop {
-            self.completed = false;
-        }
         if let Some(r) = result {
             self.evaluations = base + r.evaluations;
             self.offer(&r.u, r.cost);
