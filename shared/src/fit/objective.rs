@@ -175,10 +175,9 @@ impl<'r, 'a> Objective<'r, 'a> {
                 current_sq: totals.current_sq,
                 w2: (self.current_weight as f64) * (self.current_weight as f64),
             };
-            let Some(sums) = self.record_sums(r, p, &partial)? else {
+            if self.record_sums(r, p, &partial, &mut totals)?.is_none() {
                 return Ok(None);
-            };
-            sums.finish_into(self.current_weight, 0, &mut totals);
+            }
         }
         Ok(self.cost_of(&totals))
     }
@@ -194,12 +193,11 @@ impl<'r, 'a> Objective<'r, 'a> {
     ) -> Result<(), Error> {
         let r = self.records.get(index).ok_or(Error::NoRecords)?;
         let (init, _) = self.initial_pair(r, p);
-        let sums = self
-            .record_sums(r, p, &Partial::UNBOUNDED)
+        let shift = self
+            .record_sums(r, p, &Partial::UNBOUNDED, &mut Totals::default())
             .ok()
             .flatten()
             .ok_or(Error::NoFiniteCandidate)?;
-        let shift = sums.finish_into(self.current_weight, 0, &mut Totals::default());
         let best = InitialState {
             omega: init.omega + shift,
             ..init
@@ -207,8 +205,10 @@ impl<'r, 'a> Objective<'r, 'a> {
         crate::model::record::simulate(p, r, best, true, out_omega, out_current)
     }
 
-    /// Residual sums of record `r` simulated with `p` (no Jacobian); `Err(())` once the
-    /// SSE reaches the limit of `partial`. Not inlined: a frame of its own keeps the hot
+    /// Residual sums of record `r` simulated with `p` (no Jacobian), added to `totals`;
+    /// returns the least-squares correction of its initial speed (see
+    /// [`RecordSums::finish_into`]), `Err(())` once the SSE reaches the limit of `partial`
+    /// (`totals` untouched then). The record's sums never leave this frame. Not inlined: a frame of its own keeps the hot
     /// loop's simulators and sums next to the stack pointer (on the M4, within reach of one
     /// `vldr`, which the callers' larger frames had pushed out: 11 % more instructions).
     #[inline(never)]
@@ -217,7 +217,8 @@ impl<'r, 'a> Objective<'r, 'a> {
         r: &Record,
         p: &ModelParams,
         partial: &Partial,
-    ) -> Result<Option<RecordSums>, ()> {
+        totals: &mut Totals,
+    ) -> Result<Option<f32>, ()> {
         let (init, shifted) = self.initial_pair(r, p);
         let Ok(mut sim) = Simulator::new(p, r.dt, init) else {
             return Ok(None);
@@ -256,7 +257,7 @@ impl<'r, 'a> Objective<'r, 'a> {
                 }
             }
         }
-        Ok(Some(sums))
+        Ok(Some(sums.finish_into(w, totals, None)))
     }
 
     /// Fitness at unit point `u` when it is below `bound`, otherwise any value not below
@@ -280,10 +281,11 @@ impl<'r, 'a> Objective<'r, 'a> {
 
     /// Normal equations at unit point `u` by finite differences of step `h` in unit
     /// coordinates: forward (dim + 1 evaluations) or central (2 dim + 1), with the initial
-    /// speeds projected out (variable projection, see [`RecordSums`]). Written into `out`,
-    /// which is left untouched when the point cannot be simulated or a sum is not finite
-    /// (false): in place, so that no second copy of the equations sits on a refinement's
-    /// stack (the board's stack budget, README).
+    /// speeds projected out (variable projection, see [`RecordSums`]). Written into `out`
+    /// in place, so that no second copy of the equations sits on a refinement's stack (the
+    /// board's stack budget, README). False when the point cannot be simulated or a sum is
+    /// not finite: `out.cost` and `out.simulations` are then as they were, its sums are not
+    /// (a caller that goes on uses the cost only, as least squares does when it stops).
     pub fn normal_equations(
         &self,
         space: &Space,
@@ -334,6 +336,9 @@ impl<'r, 'a> Objective<'r, 'a> {
         }
         let w = self.current_weight;
         let mut totals = Totals::default();
+        // The Jacobian's sums go straight into `out` (no second matrix on this frame).
+        out.jtj = [[0.0; MAX_FREE]; MAX_FREE];
+        out.jtr = [0.0; MAX_FREE];
         for r in self.records {
             let (init, shifted) = self.initial_pair(r, &nominal);
             let mut sim0 = Simulator::new(&nominal, r.dt, init).ok()?;
@@ -381,10 +386,10 @@ impl<'r, 'a> Objective<'r, 'a> {
                     s.apply(&input);
                 }
             }
-            sums.finish_into(w, dim, &mut totals);
+            sums.finish_into(w, &mut totals, Some((dim, &mut out.jtj, &mut out.jtr)));
         }
         let cost = self.cost_of(&totals)?;
-        let (jtj, jtr) = (&totals.jtj, &totals.jtr);
+        let (jtj, jtr) = (&out.jtj, &out.jtr);
         let finite = jtr[..dim].iter().all(|x| x.is_finite())
             && jtj[..dim]
                 .iter()
@@ -392,8 +397,6 @@ impl<'r, 'a> Objective<'r, 'a> {
         if !finite {
             return None;
         }
-        out.jtj = *jtj;
-        out.jtr = *jtr;
         out.cost = cost;
         // One evaluation per distinct parameter set, over all records (as the FFO counts).
         out.simulations = 1 + points.len() as u32;

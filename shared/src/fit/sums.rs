@@ -217,10 +217,16 @@ impl RecordSums {
         }
     }
 
-    /// Add the record's sums, with its initial speed projected out, to `totals`; returns
-    /// the least-squares correction of the initial speed [rad/s]. (In place: no record-sized
-    /// copy of the matrix on the stack.)
-    pub(crate) fn finish_into(&self, w: f32, dim: usize, totals: &mut Totals) -> f32 {
+    /// Add the record's sums, with its initial speed projected out, to `totals` and, given
+    /// `jacobian` (`dim` and the `J^T J`, `J^T r` sums of all records so far), its Jacobian
+    /// sums to those; returns the least-squares correction of the initial speed [rad/s].
+    /// (In place: no record-sized copy of the matrix on the stack.)
+    pub(crate) fn finish_into(
+        &self,
+        w: f32,
+        totals: &mut Totals,
+        jacobian: Option<(usize, &mut Mat, &mut Vector)>,
+    ) -> f32 {
         let w2 = (w as f64) * (w as f64);
         let hh = self.h_omega_sq.total() + w2 * self.h_current_sq.total();
         let hr = self.h_omega_r.total() + w2 * self.h_current_r.total();
@@ -240,6 +246,9 @@ impl RecordSums {
         }
         totals.omega_sq += omega_sq.max(0.0);
         totals.current_sq += current_sq.max(0.0);
+        let Some((dim, jtj, jtr)) = jacobian else {
+            return shift as f32;
+        };
         for a in 0..dim {
             let ja = self.jth[a].total();
             for b in 0..dim {
@@ -249,25 +258,24 @@ impl RecordSums {
                     // residual response -h, whence the signs.
                     x -= ja * self.jth[b].total() / hh;
                 }
-                totals.jtj[a][b] += x;
+                jtj[a][b] += x;
             }
             let mut x = self.jtr[a].total();
             if shift != 0.0 {
                 x += ja * hr / hh;
             }
-            totals.jtr[a] += x;
+            jtr[a] += x;
         }
         shift as f32
     }
 }
 
-/// Sums over all records.
+/// Sums of squared residuals over all records (the Jacobian's sums are the caller's: see
+/// [`RecordSums::finish_into`]).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Totals {
     pub(crate) omega_sq: f64,
     pub(crate) current_sq: f64,
-    pub(crate) jtj: Mat,
-    pub(crate) jtr: Vector,
 }
 
 /// Pooled noise of several signals, floored at the quantisation noise `q / sqrt(12)` of the
