@@ -73,6 +73,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
             ],
             log_y: false,
             categories: None,
+            spans: vec![],
         },
         Panel {
             title: "residual (measured - fitted)".into(),
@@ -86,6 +87,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
             }],
             log_y: false,
             categories: None,
+            spans: vec![],
         },
         Panel {
             title: "convergence (seed Fig. 10)".into(),
@@ -103,6 +105,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
             }],
             log_y: true,
             categories: None,
+            spans: vec![],
         },
     ];
     if f.with_current {
@@ -131,6 +134,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
                 ],
                 log_y: false,
                 categories: None,
+                spans: vec![],
             },
         );
     }

@@ -9,6 +9,9 @@ use plotters::style::FontStyle;
 use std::path::Path;
 use std::sync::Once;
 
+/// Shading of a panel's spans (light amber, behind the lines; a colour nothing else uses).
+const SPAN_COLOR: RGBColor = RGBColor(255, 236, 179);
+
 /// Most points drawn per series (longer series are decimated).
 pub const MAX_POINTS: usize = 4000;
 
@@ -51,6 +54,8 @@ pub struct Panel<'a> {
     /// Draw the series as grouped bars over these category labels (series `x` ignored)
     /// instead of lines.
     pub categories: Option<Vec<String>>,
+    /// x ranges shaded behind the lines (e.g. where another panel zooms in).
+    pub spans: Vec<std::ops::Range<f64>>,
 }
 
 fn decimated(s: &Series) -> Vec<(f64, f64)> {
@@ -202,6 +207,13 @@ fn draw_panel(
                 .y_desc(panel.y_label)
                 .label_style(("sans-serif", 14))
                 .draw()?;
+            let (lo, hi) = (y0, y1);
+            chart.draw_series(
+                panel
+                    .spans
+                    .iter()
+                    .map(|x| Rectangle::new([(x.start, lo), (x.end, hi)], SPAN_COLOR.filled())),
+            )?;
             for (s, pts) in panel.series.iter().zip(points.iter()) {
                 chart.draw_series(LineSeries::new(
                     pts.iter().copied(),
@@ -266,4 +278,55 @@ fn draw_bars(
         }))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Columns of a 600x300 drawing of `panel` that hold the span's colour.
+    fn shaded_columns(panel: &Panel) -> Vec<usize> {
+        register_font();
+        let (w, h) = (600usize, 300usize);
+        let mut buf = vec![0u8; w * h * 3];
+        {
+            let area =
+                BitMapBackend::with_buffer(&mut buf, (w as u32, h as u32)).into_drawing_area();
+            area.fill(&WHITE).unwrap();
+            draw_panel(&area, panel).unwrap();
+            area.present().unwrap();
+        }
+        let shade = [SPAN_COLOR.0, SPAN_COLOR.1, SPAN_COLOR.2];
+        (0..w)
+            .filter(|&x| (0..h).any(|y| buf[(y * w + x) * 3..][..3] == shade))
+            .collect()
+    }
+
+    #[test]
+    fn a_span_is_shaded_over_its_x_range_only() {
+        let x: Vec<f64> = (0..=100).map(f64::from).collect();
+        let y: Vec<f32> = x.iter().map(|&t| (t as f32 * 0.2).sin()).collect();
+        let panel = |spans: Vec<std::ops::Range<f64>>| Panel {
+            title: "spans".into(),
+            x_label: "t",
+            y_label: "y",
+            series: vec![Series {
+                label: "y",
+                x: &x,
+                y: &y,
+                color: BLUE,
+            }],
+            log_y: false,
+            categories: None,
+            spans,
+        };
+        assert!(shaded_columns(&panel(vec![])).is_empty());
+        let cols = shaded_columns(&panel(vec![40.0..60.0]));
+        // The plotting area spans about 500 of the 600 columns: 40..60 of 0..100 is about
+        // 100 columns, in the middle.
+        assert!((80..=120).contains(&cols.len()), "{} columns", cols.len());
+        let (first, last) = (cols[0], cols[cols.len() - 1]);
+        assert_eq!(last - first + 1, cols.len(), "one band");
+        assert!(first > 250 && last < 450, "band at {first}..{last}");
+    }
 }

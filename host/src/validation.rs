@@ -238,6 +238,7 @@ pub fn plot(path: &Path, records: &[OwnedRecord], predicted: &[Vec<f32>]) -> Res
             ],
             log_y: false,
             categories: None,
+            spans: vec![],
         })
         .collect();
     draw(path, &panels)

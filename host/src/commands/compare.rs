@@ -193,6 +193,7 @@ pub fn run_compare(a: &CompareArgs) -> Result<()> {
                 series,
                 log_y: true,
                 categories: None,
+                spans: vec![],
             }],
         )?;
     }

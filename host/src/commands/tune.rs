@@ -170,6 +170,7 @@ pub fn run(a: &TuneArgs) -> Result<()> {
                 ],
                 log_y: false,
                 categories: None,
+                spans: vec![],
             })
             .collect();
         draw(path, &panels)?;

@@ -55,8 +55,8 @@ pub struct DiagnoseArgs {
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write a PNG plot (measured vs baseline vs with-effect speed, residuals, misfit by
-    /// regime, and a zoom on the worst periods of each chirp- or sine-like held-out record)
-    /// here.
+    /// regime, and a zoom on the worst periods of each chirp- or sine-like held-out record,
+    /// shaded on the overview) here.
     #[arg(long)]
     pub plot: Option<PathBuf>,
 }

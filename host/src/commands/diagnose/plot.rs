@@ -1,7 +1,8 @@
 //! The `diagnose` plot: held-out speed measured, with the baseline and with the verdict's
 //! effect; the residuals before and after; the baseline's misfit by regime; and, for each
 //! held-out record whose input alternates too fast to read on the overview (a chirp, a
-//! sine), a zoom on the few periods where the baseline misfits most.
+//! sine), a zoom on the few periods where the baseline misfits most, its window shaded on
+//! the overview.
 
 use super::data::Data;
 use super::report::DiagnoseReport;
@@ -59,7 +60,7 @@ pub fn plot(
         named.join(" + ")
     };
     let green = RGBColor(0, 140, 0);
-    let panels = [
+    let mut panels = [
         Panel {
             title: "held-out speed: measured, baseline, with the verdict's effects".into(),
             x_label: "t [s] (held-out records side by side)",
@@ -86,6 +87,7 @@ pub fn plot(
             ],
             log_y: false,
             categories: None,
+            spans: vec![],
         },
         Panel {
             title: "held-out residual before / after".into(),
@@ -107,6 +109,7 @@ pub fn plot(
             ],
             log_y: false,
             categories: None,
+            spans: vec![],
         },
         Panel {
             title: "baseline misfit by regime (train and held-out records)".into(),
@@ -128,6 +131,7 @@ pub fn plot(
             ],
             log_y: false,
             categories: Some(labels),
+            spans: vec![],
         },
     ];
     if regimes.is_empty() {
@@ -135,6 +139,7 @@ pub fn plot(
     }
     // The zooms: the fastest-alternating records first, at most MAX_ZOOMS of them.
     let total = offset;
+    let overview_t = &t;
     let mut fast: Vec<(usize, Vec<usize>)> = data
         .holdout
         .iter()
@@ -162,6 +167,7 @@ pub fn plot(
                     "{}, the {ZOOM_PERIODS} periods of largest baseline misfit",
                     r.name()
                 ),
+                overview: overview_t[at + window.start]..overview_t[at + window.end - 1],
                 x_label: format!("t in {} [s]", r.name()),
                 t,
                 meas: slice(&meas),
@@ -172,6 +178,13 @@ pub fn plot(
             }
         })
         .collect();
+    // Where the zooms are, shaded on the overview's two panels.
+    for panel in &mut panels[..2] {
+        panel.spans = zooms.iter().map(|z| z.overview.clone()).collect();
+        if !zooms.is_empty() {
+            panel.title.push_str(" (shaded: zoomed in below)");
+        }
+    }
     let zoom_panels: Vec<[Panel; 2]> = zooms
         .iter()
         .map(|z| {
@@ -193,6 +206,7 @@ pub fn plot(
                     ],
                     log_y: false,
                     categories: None,
+                    spans: vec![],
                 },
                 Panel {
                     title: "its residual before / after".into(),
@@ -201,6 +215,7 @@ pub fn plot(
                     series: vec![line("baseline", &z.rb, RED), line(&label, &z.re, green)],
                     log_y: false,
                     categories: None,
+                    spans: vec![],
                 },
             ]
         })
@@ -228,6 +243,8 @@ const READABLE_PX: f64 = 60.0;
 struct Zoom {
     /// What it shows (record and window).
     title: String,
+    /// Its window on the overview's time axis [s] (records side by side).
+    overview: Range<f64>,
     /// The time axis's label.
     x_label: String,
     /// Time [s].
