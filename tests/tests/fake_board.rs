@@ -6,7 +6,7 @@
 
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
-    BoardMessage, Estimate, HostMessage, JobStage, MotorReport, PROTOCOL_VERSION,
+    BoardMessage, Estimate, HostMessage, JobStage, MotorReport, Refusal, PROTOCOL_VERSION,
 };
 use motor_id_tests::motor_id;
 use serialport::{SerialPort, TTYPort};
@@ -288,6 +288,49 @@ fn a_first_reply_lost_on_a_port_just_opened_costs_no_timeout() {
         gap < Duration::from_secs(10),
         "the host asked again after {gap:?}, not well within its 30 s timeout"
     );
+}
+
+#[test]
+fn a_board_busy_for_longer_than_the_wait_is_named_busy() {
+    // Busy at every request: after six timeouts (1 s each here) its Busy is the answer.
+    let (path, stop, _slave) = fake_board(|_| vec![BoardMessage::Refused(Refusal::Busy)], None);
+    let started = std::time::Instant::now();
+    let outcome = board(&path, &["hello"]);
+    stop.store(true, Ordering::Relaxed);
+    assert!(
+        started.elapsed() >= Duration::from_secs(6),
+        "gave up after {:?}, before six timeouts",
+        started.elapsed()
+    );
+    failed_in_one_line(outcome, "the board refused: busy");
+}
+
+#[test]
+fn a_busy_wait_does_not_use_up_the_repeats_of_a_request() {
+    // Busy for 4 s from the first request (four timeouts of 1 s, within the six a busy board
+    // is waited for, beyond the three a request is repeated for), then the first reply lost:
+    // the host still asks again and the exchange goes on.
+    let first = std::sync::Mutex::new(None::<std::time::Instant>);
+    let lost = Arc::new(AtomicBool::new(false));
+    let (path, stop, _slave) = fake_board(
+        move |msg| {
+            let since = *first
+                .lock()
+                .unwrap()
+                .get_or_insert_with(std::time::Instant::now);
+            if since.elapsed() < Duration::from_secs(4) {
+                return vec![BoardMessage::Refused(Refusal::Busy)];
+            }
+            if !lost.swap(true, Ordering::Relaxed) {
+                return vec![];
+            }
+            plain_reply(msg)
+        },
+        None,
+    );
+    let (ok, err) = board(&path, &["params"]);
+    stop.store(true, Ordering::Relaxed);
+    assert!(ok, "{err}");
 }
 
 #[test]

@@ -139,9 +139,9 @@ impl Connection {
     }
 
     /// Send `msg` and wait for a reply that `accept` takes, repeating the request (up to three
-    /// times) when nothing comes back, as after a corrupted frame. A board busy with a job
-    /// (commissioning at power-up, say) is asked again every 0.2 s for up to
-    /// [`BUSY_TIMEOUTS`] timeouts.
+    /// times) when nothing comes back within the timeout, as after a corrupted frame. A
+    /// board busy with a job (commissioning at power-up, say) is asked again every 0.2 s for
+    /// up to [`BUSY_TIMEOUTS`] timeouts, which count no repeat; then its `Busy` is the answer.
     fn request<T>(
         &mut self,
         msg: &HostMessage,
@@ -151,11 +151,10 @@ impl Connection {
     }
 
     /// As [`Connection::request`], repeating the request every `every` (at most the timeout)
-    /// while nothing comes back, for as long in all as three timeouts (a busy board: up to
-    /// [`BUSY_TIMEOUTS`]). For a request that may be repeated at no cost (`Hello`): a port
-    /// just opened may not pass the first reply on (QEMU's pseudo-terminal drops what the
-    /// board sends until it has noticed the host, within a second; a board that resets when
-    /// its port is opened is not listening yet).
+    /// while nothing comes back, as many times as fit in three timeouts. For a request that
+    /// may be repeated at no cost (`Hello`): a port just opened may not pass the first reply
+    /// on (QEMU's pseudo-terminal drops what the board sends until it has noticed the host,
+    /// within a second; a board that resets when its port is opened is not listening yet).
     fn request_every<T>(
         &mut self,
         msg: &HostMessage,
@@ -163,13 +162,10 @@ impl Connection {
         mut accept: impl FnMut(BoardMessage) -> Option<Result<T>>,
     ) -> Result<T> {
         let every = every.min(self.timeout);
-        let patience = self.timeout * 3;
-        let started = Instant::now();
+        let tries = (3.0 * self.timeout.as_secs_f64() / every.as_secs_f64()).ceil() as u32;
         let busy_until = Instant::now() + self.timeout * BUSY_TIMEOUTS;
-        let mut last = None;
-        let mut busy = false;
-        while started.elapsed() < patience || (busy && Instant::now() < busy_until) {
-            busy = false;
+        let mut silent = 0;
+        while silent < tries {
             self.send(msg)?;
             // One deadline per request: replies it does not take (a stray progress frame,
             // say) do not extend it.
@@ -177,7 +173,6 @@ impl Connection {
             loop {
                 match self.receive_until(deadline) {
                     Ok(BoardMessage::Refused(Refusal::Busy)) if Instant::now() < busy_until => {
-                        busy = true;
                         std::thread::sleep(Duration::from_millis(200));
                         break;
                     }
@@ -189,14 +184,17 @@ impl Connection {
                     Err(e) if e.is::<Interrupted>() => {
                         bail!("interrupted: no job was running on the board")
                     }
-                    Err(e) => {
-                        last = Some(e);
+                    Err(_) => {
+                        silent += 1;
                         break;
                     }
                 }
             }
         }
-        Err(last.unwrap_or_else(|| anyhow!("no answer from the board")))
+        bail!(
+            "no answer from the board within {:.1} s ({tries} requests)",
+            every.as_secs_f64() * f64::from(tries)
+        )
     }
 }
 
