@@ -412,6 +412,28 @@ mod tests {
     use crate::testkit::Owned;
 
     #[test]
+    fn normal_equations_that_fail_leave_the_cost_as_it_was() {
+        let noise = Noise {
+            omega: 0.5,
+            current: 0.02,
+        };
+        let data = Owned::seed_motor(Profile::Steps, 0.01, 2000, noise, 3);
+        let records = [data.record(true, false)];
+        let objective = Objective::new(&records).unwrap();
+        let space = Space::new(&crate::fit::space::ProblemSpec::default(), true).unwrap();
+        let mut ne = NormalEquations::EMPTY;
+        assert!(objective.normal_equations(&space, &[0.5; 5], 1e-4, false, &mut ne));
+        let (cost, simulations) = (ne.cost, ne.simulations);
+        assert!(
+            cost.sse.is_finite() && simulations == 6,
+            "{cost:?}, {simulations}"
+        );
+        // A point that cannot be simulated (its parameters NaN).
+        assert!(!objective.normal_equations(&space, &[f32::NAN; 5], 1e-4, true, &mut ne));
+        assert_eq!((ne.cost, ne.simulations), (cost, simulations));
+    }
+
+    #[test]
     fn fitness_below_a_bound_is_exact_and_never_falls_below_it_when_abandoned() {
         let noise = Noise {
             omega: 0.5,

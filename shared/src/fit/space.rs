@@ -223,3 +223,32 @@ impl Space {
         u
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_profiles_space_is_the_space_of_the_problem_with_the_parameter_fixed() {
+        let mut spec = ProblemSpec::default();
+        spec.free(ParamId::Tc);
+        spec.set_bounds(ParamId::Tc, 0.0, 0.05).unwrap();
+        let at = ModelParams::SEED_MOTOR.with(ParamId::Tc, 0.01);
+        for log_scale in [false, true] {
+            let space = Space::new(&spec, log_scale).unwrap();
+            for id in [ParamId::Ra, ParamId::Kv, ParamId::Tc] {
+                let value = 0.5 * at.get(id) + 0.001;
+                let mut fixed = spec;
+                fixed.base = at;
+                fixed.fix(id, value).unwrap();
+                let expected = Space::new(&fixed, log_scale).unwrap();
+                let profile = space.fixing(&at, id, value).unwrap();
+                assert_eq!(profile.base, expected.base, "{id:?}");
+                assert_eq!(profile.free, expected.free, "{id:?}");
+            }
+            // What fix refuses, fixing refuses too.
+            assert!(space.fixing(&at, ParamId::Ra, -1.0).is_err());
+            assert!(space.fixing(&at, ParamId::Ra, f32::NAN).is_err());
+        }
+    }
+}
