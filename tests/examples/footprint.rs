@@ -10,7 +10,7 @@
 //!   ticks from the request to the result, and for a commissioning also from the drive's
 //!   stop at the end of the experiment (the identification alone).
 //! - The worst case of the board's stack: `board identify` of a speed-only record whose
-//!   fit escalates and whose analysis runs the profile check (the motor of issue 13's
+//!   fit runs the FFO search and whose analysis runs the profile check (the motor of issue 13's
 //!   first example, steps at 100 Hz for 20 s): its instructions are informative.
 //! - Stack high-water mark: the painted stack after these jobs (and the power-up
 //!   commissioning before them).
@@ -21,7 +21,7 @@ use object::{Object, ObjectSection, SectionFlags};
 use std::path::Path;
 use std::time::Duration;
 
-/// A motor whose speed-only fit at 100 Hz escalates and whose analysis runs the profile
+/// A motor whose speed-only fit at 100 Hz runs the FFO search and whose analysis runs the profile
 /// check (a flat direction beside pinned `j` and `kv`): the deepest stack the board reaches.
 const PROFILE_CHECK_MOTOR: &str =
     "ra=0.6252534,la=0.8401117,j=0.0011193017,b=0.00088091264,kv=1.6004144";
@@ -123,6 +123,18 @@ fn main() {
     let (default_evals, default_m, _) = job(&["identify", s(&csv)]);
     let (commission_evals, commission_m, commission_fit_m) = job(&["commission"]);
     let (speed_evals, speed_m, _) = job(&["identify", s(&speed_only), "--pipeline", "board"]);
+    // The profile check had work: a flat direction beside a pinned parameter (it only
+    // unpins, so a parameter pinned after it was pinned before).
+    let id = &motor_id_tests::json(&json)["identifiability"];
+    let pinned = id["parameters"]
+        .as_object()
+        .expect("the board's estimates")
+        .values()
+        .any(|e| e["pinned"] == true);
+    assert!(
+        id["rank"].as_u64() < id["free"].as_u64() && pinned,
+        "the speed-only job did not run the profile check: {id}"
+    );
     // The targets are the board's own identifications; the other two rows are for scale.
     println!(
         "| instructions, `board identify --pipeline board` (the board's pipeline, five motor parameters, {board_evals} evaluations) | {board_m:.1} M | <= 40 M |"
@@ -137,7 +149,7 @@ fn main() {
         "| instructions, `board identify` (the host's default pipeline, {default_evals} evaluations) | {default_m:.1} M | (informative) |"
     );
     println!(
-        "| instructions, `board identify --pipeline board` of a speed-only record with escalation and the profile check ({speed_evals} evaluations in the fit) | {speed_m:.1} M | (informative) |"
+        "| instructions, `board identify --pipeline board` of a speed-only record with the FFO search and the profile check ({speed_evals} evaluations in the fit) | {speed_m:.1} M | (informative) |"
     );
     println!("| stack high-water mark (power-up commissioning and the jobs above) | {stack} B | <= 8 KB (8,192 B) |");
     for (name, elf) in [
