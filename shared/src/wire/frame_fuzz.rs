@@ -215,7 +215,8 @@ enum Garbage {
     Random(Vec<u8>),
     /// A frame with one byte changed (its delimiter perhaps).
     Corrupted(HostMessage, Index, u8),
-    /// A frame cut short before its delimiter.
+    /// A frame cut short by at least one byte before its delimiter (one cut at its
+    /// delimiter only is a whole frame once a later delimiter arrives: not garbage).
     Truncated(HostMessage, Index),
     /// A run of non-zero bytes longer than a frame.
     Oversize(Vec<u8>),
@@ -233,7 +234,7 @@ impl Garbage {
             }
             Garbage::Truncated(msg, at) => {
                 let mut f = frame_of(msg);
-                f.truncate(at.index(f.len()));
+                f.truncate(at.index(f.len() - 1));
                 f
             }
         }
@@ -277,6 +278,26 @@ fn frames_among_garbage_are_recovered_after_a_delimiter() {
         prop_assert_eq!(taken, expected);
         Ok(())
     });
+}
+
+/// The case the fuzzer shrank to when `Truncated` could cut the delimiter alone: the frame
+/// and a delimiter that arrives later, in another write, are one whole frame.
+#[test]
+fn a_frame_whose_delimiter_comes_later_is_taken() {
+    let msg = HostMessage::Identify {
+        seed: 0,
+        pipeline: crate::wire::protocol::PipelineName::Default,
+    };
+    let mut stream = frame_of(&msg);
+    stream.pop();
+    stream.push(0);
+    let mut decoder = Decoder::new();
+    let taken: Vec<HostMessage> = stream
+        .iter()
+        .filter_map(|b| decoder.push::<HostMessage>(*b))
+        .filter_map(Result::ok)
+        .collect();
+    assert_eq!(taken, vec![msg]);
 }
 
 #[test]
