@@ -6,7 +6,7 @@ use motor_id_shared::fit::identify::{Progress, Stage};
 /// What the bar shows at one moment: its label, how far along its stage is, and a message.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BarState {
-    /// The stage's label (`FFO`, `refine`, `experiment`).
+    /// The stage's label (`FFO`, `refine`, `check`, `experiment`).
     pub prefix: &'static str,
     /// Steps done in the stage.
     pub position: u64,
@@ -24,6 +24,7 @@ impl BarState {
             prefix: match p.stage {
                 Stage::Search => "FFO",
                 Stage::Refine => "refine",
+                Stage::Check => "check",
             },
             position: u64::from(p.iteration),
             length: u64::from(p.iterations.max(p.iteration).max(1)),

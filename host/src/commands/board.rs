@@ -302,6 +302,7 @@ fn bar_state(frame: &BoardMessage) -> Option<BarState> {
         }
         JobStage::Search => Stage::Search,
         JobStage::Refine => Stage::Refine,
+        JobStage::Check => Stage::Check,
     };
     Some(BarState::of(&Progress {
         stage,

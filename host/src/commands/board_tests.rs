@@ -72,7 +72,12 @@ fn the_progress_bar_is_as_long_as_the_stage_the_board_announces() {
         best: 0.5,
     };
     // Frame after frame of one stage: the position advances, the length stays the total.
-    for stage in [JobStage::Experiment, JobStage::Search, JobStage::Refine] {
+    for stage in [
+        JobStage::Experiment,
+        JobStage::Search,
+        JobStage::Refine,
+        JobStage::Check,
+    ] {
         let states: Vec<BarState> = (1..=5)
             .map(|k| bar_state(&frame(stage, k)).unwrap())
             .collect();
@@ -94,6 +99,10 @@ fn the_progress_bar_is_as_long_as_the_stage_the_board_announces() {
     assert_eq!(
         bar_state(&frame(JobStage::Refine, 0)).unwrap().prefix,
         "refine"
+    );
+    assert_eq!(
+        bar_state(&frame(JobStage::Check, 0)).unwrap().prefix,
+        "check"
     );
     // A board that runs past its announced total stretches the bar instead of overfilling it.
     assert_eq!(bar_state(&frame(JobStage::Refine, 50)).unwrap().length, 50);

@@ -252,6 +252,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 stage: match p.stage {
                     Stage::Search => JobStage::Search,
                     Stage::Refine => JobStage::Refine,
+                    Stage::Check => JobStage::Check,
                 },
                 iteration: p.iteration,
                 total: p.iterations,

@@ -192,6 +192,9 @@ pub enum Stage {
     Search,
     /// Levenberg-Marquardt iterations.
     Refine,
+    /// The profile check of the uncertainty ([`crate::fit::profile`]): its least-squares
+    /// iterations, after the fit.
+    Check,
 }
 
 /// Progress report, after every FFO or refinement iteration.
@@ -275,28 +278,57 @@ pub fn identify_from(
     spec: &ProblemSpec,
     cfg: &IdentifyConfig,
     initial: Option<&ModelParams>,
-    progress: impl FnMut(&Progress) -> ControlFlow<()>,
+    mut progress: impl FnMut(&Progress) -> ControlFlow<()>,
 ) -> Result<Identification, Error> {
     if cfg.restarts as usize > MAX_RESTARTS {
         return Err(Error::InvalidConfig);
     }
     let objective = Objective::new(records)?;
     let space = Space::new(spec, cfg.log_scale)?;
-    let searched = pipeline(records, spec, cfg, initial, &objective, &space, progress)?;
+    let searched = pipeline(
+        records,
+        spec,
+        cfg,
+        initial,
+        &objective,
+        &space,
+        &mut progress,
+    )?;
     let mut result = conclude(&objective, &space, searched);
     // The profile check works on the result in place (never a second copy of it), beside
     // the analysis's frame rather than on it. It is entered only when it has work (a flat
-    // direction beside a pinned parameter).
+    // direction beside a pinned parameter), and reports its iterations as the fit does
+    // (a board feeds its watchdog there). Stopped, or not started because the caller
+    // stopped the fit, it leaves nothing pinned.
     if let (Some(lm), true, Ok(r)) = (&cfg.refine, cfg.profile_check, &mut result) {
-        if profile::applies(&r.identifiability) {
-            profile::widen(
+        if !profile::applies(&r.identifiability) {
+            // Nothing to check.
+        } else if !r.completed {
+            profile::unchecked(&mut r.identifiability);
+        } else {
+            let iterations = profile::runs(&r.identifiability) * lm.max_iterations;
+            let before = r.evaluations + r.identifiability.evaluations;
+            let best = r.cost.fitness();
+            let mut iteration = 0;
+            let checked = profile::widen(
                 &mut r.identifiability,
                 &objective,
                 &space,
                 &r.params,
                 &r.cost,
                 lm,
+                &mut |spent| {
+                    iteration += 1;
+                    progress(&Progress {
+                        stage: Stage::Check,
+                        iteration,
+                        iterations,
+                        evaluations: before + spent,
+                        best,
+                    })
+                },
             );
+            r.completed &= checked;
             r.analysis_evaluations = r.identifiability.evaluations;
         }
     }

@@ -192,3 +192,118 @@ fn escalations_widen_within_their_memory_and_end() {
     assert_ne!(board.wider(0).unwrap().1, board.seed);
     assert_ne!(board.wider(0).unwrap().1, board.wider(1).unwrap().1);
 }
+
+/// The first Table 1 motors whose speed-only board fit runs the profile check (found by
+/// the check's progress) and still has a parameter pinned after it.
+fn checked_cases(wanted: usize) -> std::vec::Vec<crate::model::synth::TableOneCase> {
+    use crate::model::synth::TableOneCase;
+    let mut found = std::vec::Vec::new();
+    for seed in 1..=400 {
+        let case = TableOneCase::new(seed, 2000);
+        let rec = [case_record(&case)];
+        let mut checked = false;
+        let id = identify(
+            &rec,
+            &ProblemSpec::default(),
+            &IdentifyConfig::board(1),
+            |p| {
+                checked |= p.stage == Stage::Check;
+                ControlFlow::Continue(())
+            },
+        )
+        .unwrap();
+        if checked && id.identifiability.params.iter().any(|c| c.pinned) {
+            found.push(case);
+            if found.len() == wanted {
+                break;
+            }
+        }
+    }
+    found
+}
+
+fn case_record(case: &crate::model::synth::TableOneCase) -> Record<'_> {
+    Record {
+        dt: case.dt,
+        v: &case.v,
+        omega: &case.omega,
+        current: None,
+        load: None,
+        coast_from: None,
+    }
+}
+
+#[test]
+fn the_profile_check_reports_progress_often_and_unpins_all_when_stopped() {
+    // A board feeds its watchdog (500 ms) at every progress report: the check, which can
+    // spend hundreds of evaluations after the fit, must report as the fit does.
+    let cases = checked_cases(3);
+    assert_eq!(cases.len(), 3, "too few motors run the check");
+    for case in &cases {
+        let rec = [case_record(case)];
+        let mut seen: std::vec::Vec<(Stage, u32)> = std::vec::Vec::new();
+        let id = identify(
+            &rec,
+            &ProblemSpec::default(),
+            &IdentifyConfig::board(1),
+            |p| {
+                seen.push((p.stage, p.evaluations));
+                ControlFlow::Continue(())
+            },
+        )
+        .unwrap();
+        let total = id.evaluations + id.analysis_evaluations;
+        let checks = seen.iter().filter(|(s, _)| *s == Stage::Check).count();
+        assert!(checks > 0 && id.completed);
+        // Never more than a few least-squares iterations' worth of evaluations unreported,
+        // from the first report to the end of the check (the evaluations only grow).
+        let mut marks: std::vec::Vec<u32> = seen.iter().map(|(_, e)| *e).collect();
+        marks.push(total);
+        assert!(marks.windows(2).all(|w| w[0] <= w[1]), "{marks:?}");
+        let gap = marks.windows(2).map(|w| w[1] - w[0]).max().unwrap();
+        assert!(gap <= 40, "{gap} evaluations between two reports");
+
+        // Stopped at its first report, the check leaves nothing pinned.
+        let stopped = identify(
+            &rec,
+            &ProblemSpec::default(),
+            &IdentifyConfig::board(1),
+            |p| {
+                if p.stage == Stage::Check {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            },
+        )
+        .unwrap();
+        assert!(!stopped.completed);
+        assert!(id.identifiability.params.iter().any(|c| c.pinned));
+        assert!(stopped
+            .identifiability
+            .params
+            .iter()
+            .all(|c| !c.pinned && c.std.is_none()));
+        assert_eq!(stopped.params, id.params);
+
+        // Stopped during the fit, the check does not start (no report after the stop) and
+        // no parameter is pinned beside a flat direction.
+        let mut after_stop = 0;
+        let mut stop = false;
+        let early = identify(
+            &rec,
+            &ProblemSpec::default(),
+            &IdentifyConfig::board(1),
+            |_| {
+                after_stop += u32::from(stop);
+                stop = true;
+                ControlFlow::Break(())
+            },
+        )
+        .unwrap();
+        assert!(!early.completed);
+        assert_eq!(after_stop, 0);
+        let flat = !early.identifiability.unpinned.is_empty();
+        assert!(!(flat && early.identifiability.params.iter().any(|c| c.pinned)));
+    }
+}

@@ -34,7 +34,7 @@
 use crate::capacity::MAX_FREE;
 use crate::fit::identifiability::{Identifiability, PINNED_STD};
 use crate::fit::objective::{Cost, Objective};
-use crate::fit::refine::{levenberg_marquardt, LmConfig};
+use crate::fit::refine::{levenberg_marquardt, LmConfig, LmResult};
 use crate::fit::space::Space;
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
@@ -56,9 +56,57 @@ pub fn applies(id: &Identifiability) -> bool {
     !id.unpinned.is_empty() && id.params.iter().any(|c| c.pinned)
 }
 
+/// Most least-squares runs the check of `id` makes: the walk's (both ways along each flat
+/// direction, from each of [`WALK`]) and two profiles per pinned parameter.
+pub fn runs(id: &Identifiability) -> u32 {
+    let pinned = id.params.iter().filter(|c| c.pinned).count();
+    (id.unpinned.len() * 2 * WALK.len() + 2 * pinned) as u32
+}
+
+/// The check's least-squares runs, one after another: the evaluations they spent and the
+/// caller's progress, called after every iteration with the evaluations spent so far (a
+/// board feeds its watchdog there and hears an abort). Once the caller stops the check, no
+/// run starts.
+struct Runs<'p> {
+    spent: u32,
+    progress: &'p mut dyn FnMut(u32) -> ControlFlow<()>,
+    stopped: bool,
+}
+
+impl Runs<'_> {
+    /// Least squares on `space` from `start`; None when it cannot start or the check was
+    /// stopped (before or during it).
+    fn refine(
+        &mut self,
+        objective: &Objective,
+        space: &Space,
+        start: &[f32],
+        lm: &LmConfig,
+    ) -> Option<LmResult> {
+        if self.stopped {
+            return None;
+        }
+        let base = self.spent;
+        let progress = &mut *self.progress;
+        let mut stop = false;
+        let r = levenberg_marquardt(objective, space, start, lm, &mut |lp| {
+            let flow = progress(base + lp.evaluations);
+            stop |= flow.is_break();
+            flow
+        });
+        if let Some(r) = &r {
+            self.spent = base + r.evaluations;
+        }
+        self.stopped |= stop;
+        r.filter(|_| !stop)
+    }
+}
+
 /// Widen the deviations of `id`'s pinned parameters by the profile check (module doc), for
 /// the fit `at` with cost `cost`, searched in `space` (its bounds and scales); the
-/// evaluations it spends are added to `id.evaluations`.
+/// evaluations it spends are added to `id.evaluations`. `progress` is called after every
+/// least-squares iteration with the evaluations the check has spent; when it stops the
+/// check, no parameter is left pinned (none was confirmed) and the result is false.
 /// Not inlined, nor the walk and the profiles: their frames are on the stack only while
 /// they run, one at a time, not throughout the identification's.
 #[inline(never)]
@@ -69,13 +117,19 @@ pub fn widen(
     at: &ModelParams,
     cost: &Cost,
     lm: &LmConfig,
-) {
+    progress: &mut dyn FnMut(u32) -> ControlFlow<()>,
+) -> bool {
     if !applies(id) {
-        return;
+        return true;
     }
     let dof = (cost.residuals as f64 - space.dim() as f64).max(1.0);
     let sigma2 = (cost.sse / dof).max(f64::MIN_POSITIVE);
-    let farthest = walk_the_valley(id, objective, space, at, cost, sigma2, lm);
+    let mut runs = Runs {
+        spent: 0,
+        progress,
+        stopped: false,
+    };
+    let farthest = walk_the_valley(id, objective, space, at, cost, sigma2, lm, &mut runs);
     for certainty in id.params.iter_mut() {
         let Some(std) = certainty.std.filter(|_| certainty.pinned) else {
             continue;
@@ -101,12 +155,19 @@ pub fn widen(
                 // The bound ends the valley on this side before the step.
                 continue;
             }
-            let Some((rise, evaluations)) =
-                profile_rise(objective, space, at, certainty.id, value, cost, sigma2, lm)
-            else {
+            let Some(rise) = profile_rise(
+                objective,
+                space,
+                at,
+                certainty.id,
+                value,
+                cost,
+                sigma2,
+                lm,
+                &mut runs,
+            ) else {
                 continue;
             };
-            id.evaluations += evaluations;
             widest = widest.max(STEPS * f64::from(std) / libm::sqrt(rise));
         }
         if widest > f64::from(std) {
@@ -115,12 +176,27 @@ pub fn widen(
             certainty.std = certainty.pinned.then_some(widest as f32);
         }
     }
+    id.evaluations += runs.spent;
+    if runs.stopped {
+        unchecked(id);
+    }
+    !runs.stopped
+}
+
+/// What a check that did not run (or was stopped) leaves: no parameter pinned, since none
+/// was confirmed.
+pub fn unchecked(id: &mut Identifiability) {
+    for certainty in id.params.iter_mut() {
+        certainty.pinned = false;
+        certainty.std = None;
+    }
 }
 
 /// The profile at one side: `id` fixed at `value`, the other free parameters of `space`
 /// refitted by least squares from `at`; the rise of the cost over `cost` in units of the
-/// residual variance `sigma2`, and the evaluations spent. None when the profile cannot be
-/// set up (a value the parameter may not take) or not simulated: the local figure stands.
+/// residual variance `sigma2`. None when the profile cannot be set up (a value the
+/// parameter may not take) or not simulated, or the check was stopped: the local figure
+/// stands.
 /// A frame of its own (the profile's space), beside the walk's rather than on top of it.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
@@ -133,34 +209,33 @@ fn profile_rise(
     cost: &Cost,
     sigma2: f64,
     lm: &LmConfig,
-) -> Option<(f64, u32)> {
+    runs: &mut Runs,
+) -> Option<f64> {
     let profile = space.fixing(at, id, value as f32).ok()?;
     let start = profile.unit(at);
-    let r = levenberg_marquardt(objective, &profile, &start, lm, &mut |_| {
-        ControlFlow::Continue(())
-    })?;
-    let rise = ((r.cost.sse - cost.sse) / sigma2).max(1e-12);
-    Some((rise, r.evaluations))
+    let r = runs.refine(objective, &profile, &start, lm)?;
+    Some(((r.cost.sse - cost.sse) / sigma2).max(1e-12))
 }
 
 /// The valley walk (module doc): for every free parameter, its largest distance from the
 /// optimum over the points of the flat directions' valley that fit as well (in its own
-/// unit; `sigma2` the residual variance). Adds the evaluations to `id.evaluations`.
+/// unit; `sigma2` the residual variance).
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn walk_the_valley(
-    id: &mut Identifiability,
+    id: &Identifiability,
     objective: &Objective,
     space: &Space,
     at: &ModelParams,
     cost: &Cost,
     sigma2: f64,
     lm: &LmConfig,
+    runs: &mut Runs,
 ) -> [f64; MAX_FREE] {
     let dim = space.dim();
     let free = space.free();
     let u0 = space.unit(at);
     let mut farthest = [0.0f64; MAX_FREE];
-    let mut evaluations = 0;
     for direction in &id.unpinned {
         // The direction in unit coordinates (natural = per_unit * unit).
         let mut du = [0.0f32; MAX_FREE];
@@ -187,12 +262,9 @@ fn walk_the_valley(
                 for i in 0..dim {
                     start[i] = (u0[i] + sign * fraction * edge * du[i]).clamp(0.0, 1.0);
                 }
-                let Some(r) = levenberg_marquardt(objective, space, &start[..dim], lm, &mut |_| {
-                    ControlFlow::Continue(())
-                }) else {
+                let Some(r) = runs.refine(objective, space, &start[..dim], lm) else {
                     continue;
                 };
-                evaluations += r.evaluations;
                 if (r.cost.sse - cost.sse) / sigma2 > VALLEY_FIT {
                     continue;
                 }
@@ -203,6 +275,5 @@ fn walk_the_valley(
             }
         }
     }
-    id.evaluations += evaluations;
     farthest
 }

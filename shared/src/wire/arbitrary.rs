@@ -145,6 +145,7 @@ pub(crate) fn board_message() -> impl Strategy<Value = BoardMessage> {
         JobStage::Experiment,
         JobStage::Search,
         JobStage::Refine,
+        JobStage::Check,
     ]);
     let not_stored = prop_oneof![
         select(vec![NotStored::Empty, NotStored::Corrupt]),

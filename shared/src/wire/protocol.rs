@@ -6,7 +6,7 @@ use crate::capacity::MAX_ESTIMATES;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 6;
+pub const PROTOCOL_VERSION: u16 = 7;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -84,6 +84,9 @@ pub enum JobStage {
     Search,
     /// Least-squares iterations.
     Refine,
+    /// The profile check of the uncertainty: its least-squares iterations, after the fit
+    /// (protocol 7).
+    Check,
 }
 
 /// An identified motor as the board reports and stores it.
