@@ -10,7 +10,7 @@ use anyhow::{anyhow, Result};
 use argmin::core::{CostFunction, Executor};
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::particleswarm::ParticleSwarm;
-use motor_id_shared::fit::identify::{identify, IdentifyConfig};
+use motor_id_shared::fit::identify::{identify, IdentifyConfig, Stage};
 use motor_id_shared::fit::objective::Objective;
 use motor_id_shared::fit::space::{ProblemSpec, Space};
 use rand::SeedableRng;
@@ -130,6 +130,10 @@ pub fn run(
     let pipeline = |cfg: IdentifyConfig| -> Result<Run> {
         let mut trace = Vec::new();
         let id = identify(&recs, spec, &cfg, |p| {
+            // The uncertainty's check after the fit is no part of the optimiser's convergence.
+            if p.stage == Stage::Check {
+                return ControlFlow::Continue(());
+            }
             trace.push((p.evaluations, p.best as f64));
             if p.evaluations >= budget {
                 ControlFlow::Break(())
