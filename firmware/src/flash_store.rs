@@ -1,7 +1,7 @@
 //! Parameters in non-volatile memory: the record of `motor_id_shared::wire::stored` (magic,
 //! layout version, CRC) in one flash sector of the board, or in RAM for QEMU.
 
-use motor_id_shared::device::hardware::ParamStore;
+use motor_id_shared::device::hardware::{ParamStore, Watchdog};
 use motor_id_shared::wire::protocol::{MotorReport, NotStored};
 use motor_id_shared::wire::stored::{self, STORED_LEN};
 
@@ -9,6 +9,9 @@ use motor_id_shared::wire::stored::{self, STORED_LEN};
 pub trait ParamFlash {
     /// Read the record area.
     fn read(&mut self) -> [u8; STORED_LEN];
+    /// Longest erase [ms]: the processor stalls that long (every fetch from flash waits),
+    /// so the erase runs within the watchdog's [`Watchdog::stall`].
+    const ERASE_MAX_MS: u32;
     /// Erase the sector (all bytes `0xFF`).
     fn erase(&mut self);
     /// Program the erased record area with `bytes`.
@@ -23,16 +26,16 @@ impl<F: ParamFlash> ParamStore for FlashStore<F> {
         stored::decode(&self.0.read())
     }
 
-    fn save(&mut self, report: &MotorReport) {
+    fn save(&mut self, report: &MotorReport, watchdog: &mut dyn Watchdog) {
         let bytes = stored::encode(report);
-        self.0.erase();
+        watchdog.stall(F::ERASE_MAX_MS, &mut || self.0.erase());
         self.0.program(&bytes);
         if self.0.read() != bytes {
             defmt::error!("parameter sector did not read back what was written");
         }
     }
 
-    fn clear(&mut self) {
-        self.0.erase();
+    fn clear(&mut self, watchdog: &mut dyn Watchdog) {
+        watchdog.stall(F::ERASE_MAX_MS, &mut || self.0.erase());
     }
 }

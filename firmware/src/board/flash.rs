@@ -23,6 +23,9 @@ impl Sector11 {
 }
 
 impl ParamFlash for Sector11 {
+    /// 128 KB sector erase at x8 parallelism (the HAL's `PSIZE`): typically 2 s, at most
+    /// 4 s (STM32F405 datasheet, Flash memory programming characteristics).
+    const ERASE_MAX_MS: u32 = 4_000;
     fn read(&mut self) -> [u8; STORED_LEN] {
         let mut out = [0u8; STORED_LEN];
         for (k, b) in out.iter_mut().enumerate() {

@@ -58,6 +58,29 @@ impl Watchdog for BoardWatchdog {
     fn feed(&mut self) {
         self.0.feed();
     }
+
+    /// The window widened to twice the stall plus the usual one (the LSI that times the
+    /// IWDG runs at 17 to 47 kHz, not 32: a window set in nominal milliseconds may pass
+    /// 1.5 times faster), then the usual window again. Each change of window waits until
+    /// the IWDG has taken it (its prescaler and reload updates done) before the feed that
+    /// starts the count-down with it.
+    fn stall(&mut self, up_to_ms: u32, op: &mut dyn FnMut()) {
+        self.window(2 * up_to_ms + WATCHDOG_MS);
+        op();
+        self.window(WATCHDOG_MS);
+    }
+}
+
+impl BoardWatchdog {
+    /// Set the window to `ms` (at most 32,767) and restart the count-down with it.
+    fn window(&mut self, ms: u32) {
+        self.0.start(ms.millis());
+        // SAFETY: a read of the IWDG's status register, which the HAL's watchdog owns and
+        // never reads in between; no write.
+        let iwdg = unsafe { &*stm32f4xx_hal::pac::IWDG::ptr() };
+        while iwdg.sr().read().pvu().bit() || iwdg.sr().read().rvu().bit() {}
+        self.0.feed();
+    }
 }
 
 /// The status LED on PC13 (active low).

@@ -29,6 +29,7 @@ const NOISE_SEED: u64 = 7;
 pub struct RamFlash([u8; STORED_LEN]);
 
 impl ParamFlash for RamFlash {
+    const ERASE_MAX_MS: u32 = 0;
     fn read(&mut self) -> [u8; STORED_LEN] {
         self.0
     }

@@ -45,10 +45,11 @@ pub trait Drive {
 pub trait ParamStore {
     /// The stored motor, or why none is read (nothing stored, another layout, corrupted).
     fn load(&mut self) -> Result<MotorReport, NotStored>;
-    /// Store `report`.
-    fn save(&mut self, report: &MotorReport);
-    /// Erase.
-    fn clear(&mut self);
+    /// Store `report`. An erase that stalls the processor runs within `watchdog`'s
+    /// [`Watchdog::stall`].
+    fn save(&mut self, report: &MotorReport, watchdog: &mut dyn Watchdog);
+    /// Erase (within `watchdog`'s [`Watchdog::stall`], as `save`).
+    fn clear(&mut self, watchdog: &mut dyn Watchdog);
 }
 
 /// The independent watchdog: it stays on during experiments and identification, which feed
@@ -56,6 +57,11 @@ pub trait ParamStore {
 pub trait Watchdog {
     /// Restart the watchdog's count-down.
     fn feed(&mut self);
+    /// Run `op`, during which the processor may stall for up to `up_to_ms` milliseconds with
+    /// no chance to feed (a flash sector erase stalls every fetch from flash: up to 4 s for
+    /// a 128 KB sector of the STM32F405), the watchdog's window widened to cover it, then
+    /// restored and the count-down restarted.
+    fn stall(&mut self, up_to_ms: u32, op: &mut dyn FnMut());
 }
 
 /// For builds without a watchdog (QEMU does not model the IWDG).
@@ -63,6 +69,9 @@ pub struct NoWatchdog;
 
 impl Watchdog for NoWatchdog {
     fn feed(&mut self) {}
+    fn stall(&mut self, _up_to_ms: u32, op: &mut dyn FnMut()) {
+        op();
+    }
 }
 
 /// The board as the application sees it: link, drive, parameter store, watchdog.

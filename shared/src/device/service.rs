@@ -61,6 +61,7 @@ fn deliver(
     id: &Identification,
     store: bool,
     params: &mut impl ParamStore,
+    watchdog: &mut impl Watchdog,
     link: &mut impl Link,
 ) -> Result<MotorReport, JobEnd> {
     // The board's own problems always fit its report (see `motor_report`).
@@ -68,7 +69,7 @@ fn deliver(
         return fail(JobEnd::Refused(Refusal::InvalidRecord), link);
     };
     if store {
-        params.save(&report);
+        params.save(&report, watchdog);
     }
     // Sent in place and taken back (no copy of the report).
     let message = BoardMessage::Identified(report);
@@ -223,7 +224,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 hw.link.send(&BoardMessage::Params(stored));
             }
             HostMessage::ClearParams => {
-                hw.params.clear();
+                hw.params.clear(&mut hw.watchdog);
                 let cleared = BoardMessage::Cleared;
                 hw.link.send(&cleared);
             }
@@ -269,7 +270,7 @@ impl<'s, const N: usize> Service<'s, N> {
         // By reference: the identification is not moved into a second copy on this frame.
         let end = match &result {
             _ if aborted => JobEnd::Aborted,
-            Ok(id) => return deliver(id, store, &mut hw.params, &mut hw.link),
+            Ok(id) => return deliver(id, store, &mut hw.params, &mut hw.watchdog, &mut hw.link),
             Err(crate::Error::InvalidConfig) => JobEnd::Refused(Refusal::PipelineTooLarge),
             Err(_) => JobEnd::Refused(Refusal::InvalidRecord),
         };

@@ -37,27 +37,40 @@ impl Link for TestLink {
     }
 }
 
+/// Parameters in RAM: the stored report and the saves. Like a flash sector, it erases
+/// within the watchdog's stall (the one the service hands it: the hardware's).
 #[derive(Default)]
 struct RamParams(Option<MotorReport>, u32);
+
+/// A flash sector's worst erase time [ms] (STM32F405, 128 KB at x8 parallelism).
+const ERASE_MS: u32 = 4_000;
 
 impl ParamStore for RamParams {
     fn load(&mut self) -> Result<MotorReport, NotStored> {
         self.0.clone().ok_or(NotStored::Empty)
     }
-    fn save(&mut self, report: &MotorReport) {
+    fn save(&mut self, report: &MotorReport, watchdog: &mut dyn Watchdog) {
+        watchdog.stall(ERASE_MS, &mut || {});
         self.0 = Some(report.clone());
         self.1 += 1;
     }
-    fn clear(&mut self) {
+    fn clear(&mut self, watchdog: &mut dyn Watchdog) {
+        watchdog.stall(ERASE_MS, &mut || {});
         self.0 = None;
     }
 }
 
+/// A watchdog that counts its feeds and its stalls.
 #[derive(Default)]
-struct CountingWatchdog(u32);
+struct CountingWatchdog(u32, u32);
 
 impl Watchdog for CountingWatchdog {
     fn feed(&mut self) {
+        self.0 += 1;
+    }
+    fn stall(&mut self, _up_to_ms: u32, op: &mut dyn FnMut()) {
+        self.1 += 1;
+        op();
         self.0 += 1;
     }
 }
@@ -144,6 +157,17 @@ fn first_power_up_commissions_then_boots_into_service() {
     assert_eq!(service.boot(&mut hw), Boot::InService(report));
     assert!(hw.link.sent.is_empty());
     assert_eq!(hw.params.1, 1, "stored once");
+    // The store erased within the hardware's watchdog stall; so does a clear.
+    assert_eq!(hw.watchdog.1, 1);
+    service.handle(
+        HostMessage::Hello {
+            version: PROTOCOL_VERSION,
+        },
+        &mut hw,
+    );
+    service.handle(HostMessage::ClearParams, &mut hw);
+    assert_eq!(hw.params.0, None);
+    assert_eq!(hw.watchdog.1, 2);
 }
 
 #[test]
