@@ -193,9 +193,9 @@ fn escalations_widen_within_their_memory_and_end() {
     assert_ne!(board.wider(0).unwrap().1, board.wider(1).unwrap().1);
 }
 
-/// The first Table 1 motors whose speed-only board fit runs the profile check (found by
-/// the check's progress) and still has a parameter pinned after it.
-fn checked_cases(wanted: usize) -> std::vec::Vec<crate::model::synth::TableOneCase> {
+/// The Table 1 motors (of the first 400) whose speed-only board fit runs the profile check
+/// (found by the check's progress) and still has a parameter pinned after it.
+fn checked_cases() -> std::vec::Vec<crate::model::synth::TableOneCase> {
     use crate::model::synth::TableOneCase;
     let mut found = std::vec::Vec::new();
     for seed in 1..=400 {
@@ -214,9 +214,6 @@ fn checked_cases(wanted: usize) -> std::vec::Vec<crate::model::synth::TableOneCa
         .unwrap();
         if checked && id.identifiability.params.iter().any(|c| c.pinned) {
             found.push(case);
-            if found.len() == wanted {
-                break;
-            }
         }
     }
     found
@@ -233,12 +230,20 @@ fn case_record(case: &crate::model::synth::TableOneCase) -> Record<'_> {
     }
 }
 
+/// Most evaluations between two progress reports of a board fit: a board feeds its
+/// watchdog at every report. Least squares reports every iteration, a step taken or not:
+/// at most one set of normal equations (13 evaluations for five parameters, central) and
+/// the rejected trial steps of one iteration go unreported, and the switch to central
+/// differences adds one more set.
+const MOST_UNREPORTED: u32 = 64;
+
 #[test]
 fn the_profile_check_reports_progress_often_and_unpins_all_when_stopped() {
-    // A board feeds its watchdog (500 ms) at every progress report: the check, which can
-    // spend hundreds of evaluations after the fit, must report as the fit does.
-    let cases = checked_cases(3);
-    assert_eq!(cases.len(), 3, "too few motors run the check");
+    // The check can spend hundreds of evaluations after the fit: it must report as the fit
+    // does, and a stop must not leave pins it did not confirm.
+    let cases = checked_cases();
+    assert!(cases.len() >= 10, "{} motors run the check", cases.len());
+    let mut widest = 0;
     for case in &cases {
         let rec = [case_record(case)];
         let mut seen: std::vec::Vec<(Stage, u32)> = std::vec::Vec::new();
@@ -253,15 +258,13 @@ fn the_profile_check_reports_progress_often_and_unpins_all_when_stopped() {
         )
         .unwrap();
         let total = id.evaluations + id.analysis_evaluations;
-        let checks = seen.iter().filter(|(s, _)| *s == Stage::Check).count();
-        assert!(checks > 0 && id.completed);
-        // Never more than a few least-squares iterations' worth of evaluations unreported,
-        // from the first report to the end of the check (the evaluations only grow).
+        assert!(id.completed && seen.iter().any(|(s, _)| *s == Stage::Check));
+        // From the first report to the end of the check (the evaluations only grow).
         let mut marks: std::vec::Vec<u32> = seen.iter().map(|(_, e)| *e).collect();
         marks.push(total);
         assert!(marks.windows(2).all(|w| w[0] <= w[1]), "{marks:?}");
         let gap = marks.windows(2).map(|w| w[1] - w[0]).max().unwrap();
-        assert!(gap <= 40, "{gap} evaluations between two reports");
+        widest = widest.max(gap);
 
         // Stopped at its first report, the check leaves nothing pinned.
         let stopped = identify(
@@ -278,7 +281,6 @@ fn the_profile_check_reports_progress_often_and_unpins_all_when_stopped() {
         )
         .unwrap();
         assert!(!stopped.completed);
-        assert!(id.identifiability.params.iter().any(|c| c.pinned));
         assert!(stopped
             .identifiability
             .params
@@ -286,24 +288,34 @@ fn the_profile_check_reports_progress_often_and_unpins_all_when_stopped() {
             .all(|c| !c.pinned && c.std.is_none()));
         assert_eq!(stopped.params, id.params);
 
-        // Stopped during the fit, the check does not start (no report after the stop) and
-        // no parameter is pinned beside a flat direction.
+        // Stopped at the fit's last report (the same point, the same analysis, which calls
+        // for the check), the check does not start and nothing is left pinned.
+        let fit_reports = seen.iter().filter(|(s, _)| *s != Stage::Check).count();
+        let mut reports = 0;
         let mut after_stop = 0;
-        let mut stop = false;
         let early = identify(
             &rec,
             &ProblemSpec::default(),
             &IdentifyConfig::board(1),
             |_| {
-                after_stop += u32::from(stop);
-                stop = true;
-                ControlFlow::Break(())
+                reports += 1;
+                after_stop += u32::from(reports > fit_reports);
+                if reports >= fit_reports {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
             },
         )
         .unwrap();
         assert!(!early.completed);
-        assert_eq!(after_stop, 0);
-        let flat = !early.identifiability.unpinned.is_empty();
-        assert!(!(flat && early.identifiability.params.iter().any(|c| c.pinned)));
+        assert_eq!(after_stop, 0, "reports after the stop");
+        assert_eq!(early.params, id.params);
+        assert!(!early.identifiability.unpinned.is_empty());
+        assert!(early.identifiability.params.iter().all(|c| !c.pinned));
     }
+    assert!(
+        widest <= MOST_UNREPORTED,
+        "{widest} evaluations between two reports"
+    );
 }

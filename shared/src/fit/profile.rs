@@ -97,6 +97,8 @@ impl Runs<'_> {
         if let Some(r) = &r {
             self.spent = base + r.evaluations;
         }
+        // A report after every run too, one that could not start included.
+        stop = stop || (self.progress)(self.spent).is_break();
         self.stopped |= stop;
         r.filter(|_| !stop)
     }

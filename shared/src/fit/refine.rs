@@ -94,32 +94,26 @@ pub fn levenberg_marquardt(
     while iterations < cfg.max_iterations {
         iterations += 1;
         let outcome = lm_step(objective, space, &mut u, &mut ne, &mut lambda, cfg, central);
+        let (StepOutcome::Improved { evaluations: e }
+        | StepOutcome::Converged { evaluations: e }
+        | StepOutcome::Stalled { evaluations: e }
+        | StepOutcome::Failed { evaluations: e }) = outcome;
+        evaluations += e;
+        // Every iteration is reported, a step taken or not: a board feeds its watchdog and
+        // hears an abort there, so no run of rejected steps goes unreported.
+        let report = LmProgress {
+            iteration: iterations,
+            evaluations,
+            cost: ne.cost,
+        };
+        if progress(&report).is_break() {
+            completed = false;
+            break;
+        }
         let stalled = match outcome {
-            StepOutcome::Improved { evaluations: e }
-            | StepOutcome::Converged { evaluations: e } => {
-                evaluations += e;
-                let report = LmProgress {
-                    iteration: iterations,
-                    evaluations,
-                    cost: ne.cost,
-                };
-                if progress(&report).is_break() {
-                    completed = false;
-                    break;
-                }
-                if matches!(outcome, StepOutcome::Converged { .. }) {
-                    break;
-                }
-                false
-            }
-            StepOutcome::Stalled { evaluations: e } => {
-                evaluations += e;
-                true
-            }
-            StepOutcome::Failed { evaluations: e } => {
-                evaluations += e;
-                break;
-            }
+            StepOutcome::Improved { .. } => false,
+            StepOutcome::Stalled { .. } => true,
+            StepOutcome::Converged { .. } | StepOutcome::Failed { .. } => break,
         };
         if stalled {
             if central {
