@@ -197,6 +197,13 @@ mod tests {
                 evaluations: 40,
                 best: 0.51,
             },
+            BoardMessage::Progress {
+                stage: JobStage::Check,
+                iteration: 7,
+                total: 480,
+                evaluations: 300,
+                best: 0.49,
+            },
             BoardMessage::Identified(report(6)),
             BoardMessage::Params(Ok(report(6))),
             BoardMessage::Params(Err(NotStored::Empty)),
