@@ -21,7 +21,6 @@ compile_error!(
 mod app;
 #[cfg(feature = "board")]
 mod board;
-mod flash_store;
 mod link;
 #[cfg(feature = "qemu")]
 mod qemu;

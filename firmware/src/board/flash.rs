@@ -1,6 +1,6 @@
 //! Flash sector 11 of the STM32F405 (0x080E_0000, 128 KB) as the parameter sector.
 
-use crate::flash_store::ParamFlash;
+use motor_id_shared::device::flash_store::ParamFlash;
 use motor_id_shared::wire::stored::STORED_LEN;
 use stm32f4xx_hal::flash::FlashExt;
 use stm32f4xx_hal::pac::FLASH;

@@ -17,9 +17,9 @@ mod drive;
 mod flash;
 
 use crate::app::{State, StatusLed};
-use crate::flash_store::FlashStore;
 use crate::link::{ByteSerial, SerialLink};
 use defmt_rtt as _;
+use motor_id_shared::device::flash_store::FlashStore;
 use motor_id_shared::device::hardware::{Hardware, Watchdog};
 use panic_probe as _;
 use stm32f4xx_hal::gpio::{Output, Pin};
@@ -33,6 +33,9 @@ use stm32f4xx_hal::watchdog::IndependentWatchdog;
 const HSE_MHZ: u32 = 8;
 /// Baud rate of the host link.
 const BAUD: u32 = 115_200;
+/// Longest window the IWDG can time [ms] (LSI 32 kHz, prescaler 256, reload 4095; the
+/// HAL refuses 32,768 and above).
+const LONGEST_WINDOW_MS: u32 = 32_767;
 /// Watchdog timeout.
 const WATCHDOG_MS: u32 = 500;
 
@@ -65,14 +68,16 @@ impl Watchdog for BoardWatchdog {
     /// the IWDG has taken it (its prescaler and reload updates done) before the feed that
     /// starts the count-down with it.
     fn stall(&mut self, up_to_ms: u32, op: &mut dyn FnMut()) {
-        self.window(2 * up_to_ms + WATCHDOG_MS);
+        let wide = up_to_ms.saturating_mul(2).saturating_add(WATCHDOG_MS);
+        self.window(wide.min(LONGEST_WINDOW_MS));
         op();
         self.window(WATCHDOG_MS);
     }
 }
 
 impl BoardWatchdog {
-    /// Set the window to `ms` (at most 32,767) and restart the count-down with it.
+    /// Set the window to `ms` (at most [`LONGEST_WINDOW_MS`]) and restart the count-down
+    /// with it.
     fn window(&mut self, ms: u32) {
         self.0.start(ms.millis());
         // SAFETY: a read of the IWDG's status register, which the HAL's watchdog owns and

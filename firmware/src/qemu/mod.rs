@@ -9,9 +9,9 @@ mod meter;
 mod usart;
 
 use crate::app::{State, StatusLed};
-use crate::flash_store::{FlashStore, ParamFlash};
 use crate::link::SerialLink;
 use defmt_semihosting as _;
+use motor_id_shared::device::flash_store::{FlashStore, ParamFlash};
 use motor_id_shared::device::hardware::{Hardware, NoWatchdog};
 use motor_id_shared::device::plant::{demo_motor, SimulatedPlant};
 use motor_id_shared::wire::stored::STORED_LEN;

@@ -1,11 +1,12 @@
 //! The drive board's application, independent of any register: the hardware traits the
 //! board and QEMU builds implement, the service state machine that answers the host, the
-//! commissioning experiment, the conversion of a fit into the wire report, and a simulated
-//! plant behind the drive traits.
+//! commissioning experiment, the conversion of a fit into the wire report, the stored
+//! parameters on a flash sector, and a simulated plant behind the drive traits.
 //!
 //! Uses [`crate::fit`], [`crate::model`] and [`crate::wire`]; nothing below it uses it.
 
 pub mod commissioning;
+pub mod flash_store;
 pub mod hardware;
 pub mod job;
 pub mod plant;
