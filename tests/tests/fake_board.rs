@@ -184,6 +184,44 @@ fn frames_that_arrive_in_one_read_are_all_decoded() {
 }
 
 #[test]
+fn replies_that_follow_an_erase_of_the_parameter_sector_are_waited_for() {
+    // The board erases its parameter sector (up to 4 s, stalled: no frame) before the
+    // result of a commissioning and before the answer to clear. Here 3 s, beyond the host's
+    // 1 s timeout: both are waited for.
+    let report = MotorReport {
+        estimates: (0..5u8)
+            .map(|k| Estimate {
+                param: k,
+                value: 1.0 + k as f32,
+                std: 0.01,
+            })
+            .collect(),
+        rmse_omega: 0.5,
+        evaluations: 21,
+        rank: 5,
+    };
+    let (path, stop, _slave) = fake_board(
+        move |msg| match msg {
+            HostMessage::Commission { .. } | HostMessage::ClearParams => {
+                std::thread::sleep(Duration::from_secs(3));
+                vec![if *msg == HostMessage::ClearParams {
+                    BoardMessage::Cleared
+                } else {
+                    BoardMessage::Identified(report.clone())
+                }]
+            }
+            other => plain_reply(other),
+        },
+        None,
+    );
+    for action in ["commission", "clear"] {
+        let (ok, err) = board(&path, &[action]);
+        assert!(ok, "{action}: {err}");
+    }
+    stop.store(true, Ordering::Relaxed);
+}
+
+#[test]
 fn ctrl_c_during_a_job_aborts_it_on_the_board() {
     let asked_to_abort = Arc::new(AtomicBool::new(false));
     let seen = asked_to_abort.clone();

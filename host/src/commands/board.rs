@@ -103,9 +103,9 @@ impl Connection {
         self.port.flush().context("serial write failed")
     }
 
-    /// The next message, or an error at `deadline` (also when frames keep coming: a message
-    /// decoded after the deadline is not returned).
-    fn receive_until(&mut self, deadline: Instant) -> Result<BoardMessage> {
+    /// The next message, or an error at `deadline`, `wait` after the request (also when
+    /// frames keep coming: a message decoded after the deadline is not returned).
+    fn receive_until(&mut self, deadline: Instant, wait: Duration) -> Result<BoardMessage> {
         let mut buf = [0u8; 256];
         loop {
             if INTERRUPTED.swap(false, Ordering::SeqCst) {
@@ -114,7 +114,7 @@ impl Connection {
             if Instant::now() > deadline {
                 bail!(
                     "no answer from the board within {:.1} s",
-                    self.timeout.as_secs_f64()
+                    wait.as_secs_f64()
                 );
             }
             // Bytes read but not decoded yet first: one read may bring several frames (a
@@ -147,22 +147,18 @@ impl Connection {
         msg: &HostMessage,
         accept: impl FnMut(BoardMessage) -> Option<Result<T>>,
     ) -> Result<T> {
-        self.request_every(msg, self.timeout, accept)
+        self.request_every(msg, self.timeout, 3, accept)
     }
 
-    /// As [`Connection::request`], repeating the request every `every` (at most the timeout)
-    /// while nothing comes back, as many times as fit in three timeouts. For a request that
-    /// may be repeated at no cost (`Hello`): a port just opened may not pass the first reply
-    /// on (QEMU's pseudo-terminal drops what the board sends until it has noticed the host,
-    /// within a second; a board that resets when its port is opened is not listening yet).
+    /// As [`Connection::request`], waiting `every` for each reply and sending the request
+    /// up to `tries` times.
     fn request_every<T>(
         &mut self,
         msg: &HostMessage,
         every: Duration,
+        tries: u32,
         mut accept: impl FnMut(BoardMessage) -> Option<Result<T>>,
     ) -> Result<T> {
-        let every = every.min(self.timeout);
-        let tries = (3.0 * self.timeout.as_secs_f64() / every.as_secs_f64()).ceil() as u32;
         let busy_until = Instant::now() + self.timeout * BUSY_TIMEOUTS;
         let mut silent = 0;
         while silent < tries {
@@ -171,7 +167,7 @@ impl Connection {
             // say) do not extend it.
             let deadline = Instant::now() + every;
             loop {
-                match self.receive_until(deadline) {
+                match self.receive_until(deadline, every) {
                     Ok(BoardMessage::Refused(Refusal::Busy)) if Instant::now() < busy_until => {
                         std::thread::sleep(Duration::from_millis(200));
                         break;
@@ -216,6 +212,11 @@ const MAX_TIMEOUT_S: f64 = 86_400.0;
 /// comes back.
 const HELLO_EVERY: Duration = Duration::from_millis(500);
 
+/// A board's erase of its parameter sector stalls it (no reply, no progress) for up to 4 s
+/// (docs/CONTRACTS.md): a reply that follows one (a commissioning's result, which it
+/// stores; the answer to `clear`) is waited for this much longer than `--timeout`.
+const ERASE_ALLOWANCE: Duration = Duration::from_secs(5);
+
 /// How many `--timeout`s a busy board is waited for.
 const BUSY_TIMEOUTS: u32 = 6;
 
@@ -230,7 +231,15 @@ fn hello(c: &mut Connection) -> Result<u32> {
     let hello = HostMessage::Hello {
         version: PROTOCOL_VERSION,
     };
-    c.request_every(&hello, HELLO_EVERY, |reply| match reply {
+    // Repeated often, at no cost: a port just opened may not pass the first reply on
+    // (QEMU's pseudo-terminal drops what the board sends until it has noticed the host,
+    // within a second; a board that resets when its port is opened is not listening yet).
+    // For as long as three timeouts, and a board busy storing its parameters (after its
+    // power-up commissioning) answers nothing while it erases.
+    let every = HELLO_EVERY.min(c.timeout);
+    let patience = c.timeout * 3 + ERASE_ALLOWANCE;
+    let tries = (patience.as_secs_f64() / every.as_secs_f64()).ceil() as u32;
+    c.request_every(&hello, every, tries, |reply| match reply {
         BoardMessage::Hello { version, max_samples } if version == PROTOCOL_VERSION => Some(Ok(max_samples)),
         BoardMessage::Refused(Refusal::VersionMismatch { board: version })
         | BoardMessage::Hello { version, .. } => Some(Err(anyhow!(
@@ -240,15 +249,17 @@ fn hello(c: &mut Connection) -> Result<u32> {
     })
 }
 
-/// Wait for the end of a long job, showing its progress.
-fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
+/// Wait for the end of a long job, showing its progress; `allowance` more than the timeout
+/// after each frame for a job that stores its result ([`ERASE_ALLOWANCE`]).
+fn follow_job(c: &mut Connection, quiet: bool, allowance: Duration) -> Result<MotorReport> {
     let bar = FitProgress::new(quiet);
+    let wait = c.timeout + allowance;
     // The clock restarts only when a progress frame shows the job advancing: a board that
     // repeats itself, or sends frames that belong to no job, is timed out like a silent one.
-    let mut deadline = Instant::now() + c.timeout;
+    let mut deadline = Instant::now() + wait;
     let mut last = None;
     let out = loop {
-        match c.receive_until(deadline) {
+        match c.receive_until(deadline, wait) {
             Ok(
                 frame @ BoardMessage::Progress {
                     stage,
@@ -259,7 +270,7 @@ fn follow_job(c: &mut Connection, quiet: bool) -> Result<MotorReport> {
             ) => {
                 if last != Some((stage, iteration, evaluations)) {
                     last = Some((stage, iteration, evaluations));
-                    deadline = Instant::now() + c.timeout;
+                    deadline = Instant::now() + wait;
                 }
                 if let Some(state) = bar_state(&frame) {
                     bar.show(&state);
@@ -339,7 +350,7 @@ fn abort(c: &mut Connection) -> anyhow::Error {
     }
     let deadline = Instant::now() + c.timeout;
     loop {
-        match c.receive_until(deadline) {
+        match c.receive_until(deadline, c.timeout) {
             Ok(BoardMessage::Aborted) => return anyhow!("interrupted: the board aborted its job"),
             Ok(BoardMessage::Identified(_)) | Ok(BoardMessage::Refused(_)) => {
                 return anyhow!("interrupted: the board had just ended its job")
@@ -484,11 +495,13 @@ pub fn run(a: &BoardArgs) -> Result<()> {
                 seed: a.seed,
                 pipeline: (*pipeline).into(),
             })?;
-            follow_job(&mut c, a.quiet)?
+            follow_job(&mut c, a.quiet, Duration::ZERO)?
         }
         BoardAction::Commission => {
             c.send(&HostMessage::Commission { seed: a.seed })?;
-            follow_job(&mut c, a.quiet)?
+            // Commissioning stores its result: the board erases its parameter sector
+            // before it answers.
+            follow_job(&mut c, a.quiet, ERASE_ALLOWANCE)?
         }
         BoardAction::Params => {
             let stored = c.request(&HostMessage::ReadParams, |reply| match reply {
@@ -504,7 +517,9 @@ pub fn run(a: &BoardArgs) -> Result<()> {
             }
         }
         BoardAction::Clear => {
-            c.request(&HostMessage::ClearParams, |reply| match reply {
+            // The board erases its parameter sector before it answers.
+            let wait = c.timeout + ERASE_ALLOWANCE;
+            c.request_every(&HostMessage::ClearParams, wait, 3, |reply| match reply {
                 BoardMessage::Cleared => Some(Ok(())),
                 other => refused(&other),
             })?;
