@@ -15,7 +15,6 @@ use motor_id_shared::fit::objective::Objective;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::synth::TableOneCase;
 use motor_id_shared::param_id::ParamId;
-use motor_id_shared::Record;
 use std::ops::ControlFlow;
 use std::time::Instant;
 
@@ -36,14 +35,7 @@ struct Outcome {
 }
 
 fn run(case: &TableOneCase, cfg: &IdentifyConfig, with_current: bool) -> Outcome {
-    let rec = [Record {
-        dt: case.dt,
-        v: &case.v,
-        omega: &case.omega,
-        current: with_current.then_some(&case.current[..]),
-        load: None,
-        coast_from: None,
-    }];
+    let rec = [case.record(with_current)];
     let objective = Objective::new(&rec).unwrap();
     let floor = objective.cost(&case.truth).unwrap();
     let start = Instant::now();

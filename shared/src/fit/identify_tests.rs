@@ -127,14 +127,7 @@ fn coverage(motors: u64, with_current: bool) -> (usize, usize) {
     let (mut pinned, mut within) = (0, 0);
     for seed in 1..=motors {
         let case = TableOneCase::new(seed, 2000);
-        let rec = [Record {
-            dt: case.dt,
-            v: &case.v,
-            omega: &case.omega,
-            current: with_current.then_some(&case.current[..]),
-            load: None,
-            coast_from: None,
-        }];
+        let rec = [case.record(with_current)];
         let id = identify(
             &rec,
             &ProblemSpec::default(),
@@ -200,7 +193,7 @@ fn checked_cases() -> std::vec::Vec<crate::model::synth::TableOneCase> {
     let mut found = std::vec::Vec::new();
     for seed in 1..=400 {
         let case = TableOneCase::new(seed, 2000);
-        let rec = [case_record(&case)];
+        let rec = [case.record(false)];
         let mut checked = false;
         let id = identify(
             &rec,
@@ -219,17 +212,6 @@ fn checked_cases() -> std::vec::Vec<crate::model::synth::TableOneCase> {
     found
 }
 
-fn case_record(case: &crate::model::synth::TableOneCase) -> Record<'_> {
-    Record {
-        dt: case.dt,
-        v: &case.v,
-        omega: &case.omega,
-        current: None,
-        load: None,
-        coast_from: None,
-    }
-}
-
 /// Most evaluations between two progress reports of a board fit: a board feeds its
 /// watchdog at every report. Least squares reports every iteration, a step taken or not:
 /// at most one set of normal equations (13 evaluations for five parameters, central) and
@@ -245,7 +227,7 @@ fn the_profile_check_reports_progress_often_and_unpins_all_when_stopped() {
     assert!(cases.len() >= 10, "{} motors run the check", cases.len());
     let mut widest = 0;
     for case in &cases {
-        let rec = [case_record(case)];
+        let rec = [case.record(false)];
         let mut seen: std::vec::Vec<(Stage, u32)> = std::vec::Vec::new();
         let id = identify(
             &rec,

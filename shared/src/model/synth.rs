@@ -137,4 +137,16 @@ impl TableOneCase {
             current,
         }
     }
+
+    /// Its record, with the current column when `with_current`.
+    pub fn record(&self, with_current: bool) -> crate::model::record::Record<'_> {
+        crate::model::record::Record {
+            dt: self.dt,
+            v: &self.v,
+            omega: &self.omega,
+            current: with_current.then_some(&self.current[..]),
+            load: None,
+            coast_from: None,
+        }
+    }
 }
