@@ -146,11 +146,9 @@ fn a_board_that_repeats_itself_or_sends_stray_frames_is_timed_out() {
     }
 }
 
-#[test]
-fn frames_that_arrive_in_one_read_are_all_decoded() {
-    // A progress frame and the result back to back (as a loaded host reads them): the result
-    // must not be lost with the rest of the read.
-    let report = MotorReport {
+/// A board's report of the five motor parameters.
+fn five_parameters() -> MotorReport {
+    MotorReport {
         estimates: (0..5u8)
             .map(|k| Estimate {
                 param: k,
@@ -161,7 +159,14 @@ fn frames_that_arrive_in_one_read_are_all_decoded() {
         rmse_omega: 0.5,
         evaluations: 21,
         rank: 5,
-    };
+    }
+}
+
+#[test]
+fn frames_that_arrive_in_one_read_are_all_decoded() {
+    // A progress frame and the result back to back (as a loaded host reads them): the result
+    // must not be lost with the rest of the read.
+    let report = five_parameters();
     let (path, stop, _slave) = fake_board(
         move |msg| match msg {
             HostMessage::Commission { .. } => vec![
@@ -188,18 +193,7 @@ fn replies_that_follow_an_erase_of_the_parameter_sector_are_waited_for() {
     // The board erases its parameter sector (up to 4 s, stalled: no frame) before the
     // result of a commissioning and before the answer to clear. Here 3 s, beyond the host's
     // 1 s timeout: both are waited for.
-    let report = MotorReport {
-        estimates: (0..5u8)
-            .map(|k| Estimate {
-                param: k,
-                value: 1.0 + k as f32,
-                std: 0.01,
-            })
-            .collect(),
-        rmse_omega: 0.5,
-        evaluations: 21,
-        rank: 5,
-    };
+    let report = five_parameters();
     let (path, stop, _slave) = fake_board(
         move |msg| match msg {
             HostMessage::Commission { .. } | HostMessage::ClearParams => {
