@@ -301,11 +301,9 @@ pub fn identify_from(
     // (a board feeds its watchdog there). Stopped, or not started because the caller
     // stopped the fit, it leaves nothing pinned.
     if let (Some(lm), true, Ok(r)) = (&cfg.refine, cfg.profile_check, &mut result) {
-        if !profile::applies(&r.identifiability) {
-            // Nothing to check.
-        } else if !r.completed {
+        if !r.completed {
             profile::unchecked(&mut r.identifiability);
-        } else {
+        } else if profile::applies(&r.identifiability) {
             let iterations = profile::runs(&r.identifiability) * lm.max_iterations;
             let before = r.evaluations + r.identifiability.evaluations;
             let best = r.cost.fitness();

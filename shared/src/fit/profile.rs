@@ -185,9 +185,12 @@ pub fn widen(
     !runs.stopped
 }
 
-/// What a check that did not run (or was stopped) leaves: no parameter pinned, since none
-/// was confirmed.
+/// What a check that had work but did not run (or was stopped) leaves: no parameter
+/// pinned, since none was confirmed. Without work for it, the local analysis stands.
 pub fn unchecked(id: &mut Identifiability) {
+    if !applies(id) {
+        return;
+    }
     for certainty in id.params.iter_mut() {
         certainty.pinned = false;
         certainty.std = None;

@@ -28,6 +28,15 @@ pub struct ProblemSpec {
     pub base: ModelParams,
 }
 
+/// A value `id` may be fixed at: finite, within its physical range.
+fn check_fixed_value(id: ParamId, value: f32) -> Result<(), Error> {
+    let (lo, hi) = id.physical_range();
+    if !value.is_finite() || value < lo || value > hi {
+        return Err(Error::InvalidFixedValue(id));
+    }
+    Ok(())
+}
+
 impl Default for ProblemSpec {
     /// The seed's problem: the five motor parameters free within Table 1, no effects.
     fn default() -> Self {
@@ -48,10 +57,7 @@ impl Default for ProblemSpec {
 impl ProblemSpec {
     /// Hold `id` at `value`.
     pub fn fix(&mut self, id: ParamId, value: f32) -> Result<(), Error> {
-        let (lo, hi) = id.physical_range();
-        if !value.is_finite() || value < lo || value > hi {
-            return Err(Error::InvalidFixedValue(id));
-        }
+        check_fixed_value(id, value)?;
         self.free[id.index()] = false;
         self.base.set(id, value);
         Ok(())
@@ -178,13 +184,10 @@ impl Space {
     }
 
     /// The space of a profile ([`crate::fit::profile`]): `id` fixed at `value` (within its
-    /// physical range, as [`ProblemSpec::fix`] checks), the other free parameters as here,
+    /// physical range, checked as by [`ProblemSpec::fix`]), the other free parameters as here,
     /// with their bounds and scales, every fixed one as in `at`.
     pub fn fixing(&self, at: &ModelParams, id: ParamId, value: f32) -> Result<Space, Error> {
-        let (lo, hi) = id.physical_range();
-        if !value.is_finite() || value < lo || value > hi {
-            return Err(Error::InvalidFixedValue(id));
-        }
+        check_fixed_value(id, value)?;
         let mut free = self.free.clone();
         free.retain(|f| f.id != id);
         if free.is_empty() {
