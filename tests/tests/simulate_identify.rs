@@ -5,6 +5,18 @@ use motor_id_tests::{json, param, rel, run_ok, s, simulate, SEED_START};
 
 const MOTOR: [&str; 5] = ["ra", "la", "j", "b", "kv"];
 
+/// Every motor parameter of the report `r` within 1 % of the seed's motor (seed Table 1).
+fn assert_seed_motor_within_one_percent(r: &serde_json::Value) {
+    let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
+    for (name, t) in MOTOR.iter().zip(truth) {
+        assert!(
+            rel(param(r, name), t) < 0.01,
+            "{name}: {} vs {t}",
+            param(r, name)
+        );
+    }
+}
+
 #[test]
 fn seed_motor_with_current_is_recovered_within_one_percent() {
     let dir = tempfile::tempdir().unwrap();
@@ -29,14 +41,7 @@ fn seed_motor_with_current_is_recovered_within_one_percent() {
     ]);
     run_ok(&["identify", s(&csv), "--json", s(&report), "-q"]);
     let r = json(&report);
-    let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
-    for (name, t) in MOTOR.iter().zip(truth) {
-        assert!(
-            rel(param(&r, name), t) < 0.01,
-            "{name}: {} vs {t}",
-            param(&r, name)
-        );
-    }
+    assert_seed_motor_within_one_percent(&r);
     // The fit sits at the noise (0.5 rad/s nominal; a realisation differs by a few %).
     assert!(r["rmse_omega"].as_f64().unwrap() < 0.55);
     assert!(r["evaluations"].as_u64().unwrap() > 0);
@@ -417,14 +422,7 @@ fn a_decimated_record_identifies_the_same_motor() {
     ]);
     assert!(out.starts_with("fitted 20000 samples"), "{out}");
     let r = json(&report);
-    let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
-    for (name, t) in MOTOR.iter().zip(truth) {
-        assert!(
-            rel(param(&r, name), t) < 0.01,
-            "{name}: {} vs {t}",
-            param(&r, name)
-        );
-    }
+    assert_seed_motor_within_one_percent(&r);
     let sigma = r["noise"]["sigma_omega"].as_f64().unwrap();
     assert!((sigma / (0.5 / 10f64.sqrt()) - 1.0).abs() < 0.05, "{sigma}");
     assert!(r["rmse_omega"].as_f64().unwrap() < 1.05 * sigma);
