@@ -1,6 +1,6 @@
 //! Test support: synthetic records owned in vectors.
 
-use crate::device::commissioning::{coast_start, commissioning_input};
+use crate::device::experiment::{coast_start, slow_input};
 use crate::device::hardware::Drive;
 use crate::device::plant::SimulatedPlant;
 use crate::model::params::ModelParams;
@@ -71,9 +71,9 @@ impl Owned {
         }
     }
 
-    /// The commissioning experiment of [`crate::device::service`] (`n` samples of `dt` within
-    /// `voltage`, ending with a coast-down) run on a noise-free [`SimulatedPlant`] of `p`,
-    /// recorded as the board records it.
+    /// A slow record of the commissioning experiment ([`slow_input`]: `n` samples of `dt`
+    /// within `voltage`, ending with a coast-down) run on a noise-free [`SimulatedPlant`] of
+    /// `p`, one drive sample per record sample.
     pub fn commissioning(p: &ModelParams, n: usize, dt: f32, voltage: f32) -> Owned {
         let mut plant = SimulatedPlant::new(p, dt, 0.0, 0.0, 1).unwrap();
         let mut o = Owned {
@@ -81,7 +81,7 @@ impl Owned {
             ..Owned::zeros(dt, n)
         };
         for k in 0..n {
-            let input = commissioning_input(k, n, dt, voltage);
+            let input = slow_input(k, n, voltage);
             let s = plant.apply(input);
             (o.v[k], o.omega[k], o.current[k]) = (input.recorded_volts(), s.omega, s.current);
         }

@@ -1,154 +1,164 @@
-//! Self-commissioning's experiment: the safety checks at 0 V, the bounded excitation
-//! (voltage steps, then a coast-down) within the drive's limits, and the problem the board
-//! then solves.
+//! Self-commissioning's experiment, from an unknown motor to the records the board fits:
+//! the probe ([`crate::device::probe`]) measures the motor within the limits and refuses
+//! what cannot be commissioned within them; the experiment is designed from it
+//! ([`crate::device::design`]); its two records are recorded
+//! ([`crate::device::experiment`]); the problem the board then solves is
+//! [`commissioning_spec`].
 
-use crate::device::hardware::{Bridge, Drive, Link, Watchdog};
-use crate::device::job::{abort_requested, fail, JobEnd};
+use crate::device::bench::Bench;
+use crate::device::design::{design, Design};
+use crate::device::experiment::{coast_start, fast_input, record, slow_input};
+use crate::device::hardware::{Drive, Link, Watchdog};
+use crate::device::job::JobEnd;
+use crate::device::limits::Limits;
+use crate::device::probe::{
+    electrical_step, mechanical_step, quiet, ramp, rest_and_offset, SPEED_SHARE,
+};
 use crate::device::record_store::RecordStore;
 use crate::fit::space::ProblemSpec;
-use crate::model::profile::{Experiment, Profile};
 use crate::param_id::ParamId;
-use crate::wire::protocol::{BoardMessage, JobStage, Refusal};
+use crate::wire::protocol::{BoardMessage, JobStage, Plan, Refusal};
 
-/// Limits of the commissioning experiment.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Limits {
-    /// Largest armature voltage applied [V].
-    pub voltage: f32,
-    /// Trip above this |current| [A].
-    pub current: f32,
-    /// Trip above this |speed| [rad/s].
-    pub speed: f32,
-}
+/// Share of the budget the mechanical step may take at most.
+const MECHANICAL_BUDGET: f32 = 0.3;
+/// Share of the budget kept for the records when the mechanical step starts.
+const RECORDS_BUDGET: f32 = 0.5;
 
-/// Samples read at 0 V before an experiment (safety checks).
-pub const SAFETY_SAMPLES: usize = 32;
-
-/// Samples the safety checks wait at 0 V for the motor to come to rest.
-pub const REST_WAIT_SAMPLES: usize = 2048;
-
-/// Safety checks before any voltage is applied, at 0 V: the sensors read finite values;
-/// the motor comes to rest (mean |speed| over [`SAFETY_SAMPLES`] under 2 % of the speed
-/// limit) within [`REST_WAIT_SAMPLES`] (it may still be turning from a previous run);
-/// then the current sensor shows no offset (mean |current| under 2 % of the limit).
-pub fn safety_checks(
-    limits: &Limits,
-    drive: &mut impl Drive,
-    watchdog: &mut impl Watchdog,
-) -> Result<(), Refusal> {
-    for _ in 0..REST_WAIT_SAMPLES / SAFETY_SAMPLES {
-        let (mut omega, mut current) = (0.0f32, 0.0f32);
-        for _ in 0..SAFETY_SAMPLES {
-            watchdog.feed();
-            let s = drive.step(0.0);
-            if !(s.omega.is_finite() && s.current.is_finite()) {
-                return Err(Refusal::SensorFault);
-            }
-            omega += s.omega;
-            current += s.current;
-        }
-        let n = SAFETY_SAMPLES as f32;
-        if (omega / n).abs() <= 0.02 * limits.speed {
-            if (current / n).abs() > 0.02 * limits.current {
-                return Err(Refusal::SensorFault);
-            }
-            return Ok(());
-        }
-    }
-    Err(Refusal::NotAtRest)
-}
-
-/// The bounded experiment of self-commissioning, recorded into `store` over its whole
-/// capacity (see [`commissioning_input`]: seed Section 6 speed changes, then a coast-down
-/// for friction), read on tacho and current, with progress on the link. A trip of the
-/// current or speed limit, or an abort from the host, stops the drive and ends it (reported
-/// on the link); the drive is stopped at its end in every case.
+/// The probe, the design and the records of a commissioning, into `store`, within `limits`:
+/// the plan is sent on the link before the records (and returned). A trip, a sensor fault,
+/// a motor the probe refuses, or an abort stop the drive and end it (the caller reports it).
+/// The drive is stopped at the end in every case.
 pub fn run_experiment<const N: usize>(
     store: &mut RecordStore<N>,
     limits: &Limits,
     link: &mut impl Link,
     drive: &mut impl Drive,
     watchdog: &mut impl Watchdog,
-) -> Result<(), JobEnd> {
-    let dt = drive.dt();
-    let s = store;
-    s.dt = dt;
-    s.with_current = true;
-    s.len = 0;
-    s.expected = N;
-    s.coast_from = Some(coast_start(N));
-    for k in 0..N {
-        watchdog.feed();
-        let input = commissioning_input(k, N, dt, limits.voltage);
-        let sample = drive.apply(input);
-        let within = sample.current.abs() <= limits.current && sample.omega.abs() <= limits.speed;
-        if !within {
-            drive.stop();
-            return fail(JobEnd::Refused(Refusal::Trip), link);
-        }
-        s.v[k] = input.recorded_volts();
-        s.omega[k] = sample.omega;
-        s.current[k] = sample.current;
-        s.len = k + 1;
-        if k % 256 == 0 {
-            link.send(&BoardMessage::Progress {
-                stage: JobStage::Experiment,
-                iteration: k as u32,
-                total: N as u32,
-                evaluations: 0,
-                best: 0.0,
-            });
-            if abort_requested(link) {
-                drive.stop();
-                return fail(JobEnd::Aborted, link);
-            }
-        }
+) -> Result<Plan, JobEnd> {
+    if !limits.usable() {
+        return Err(JobEnd::Refused(Refusal::BadLimits));
     }
+    let mut bench = Bench::new(drive, link, watchdog, *limits);
+    let result = probe_and_record(&mut bench, store);
+    drop(bench);
     drive.stop();
-    Ok(())
+    result
 }
 
-/// First sample of the coast-down in a commissioning record of `n` samples: the last
-/// quarter coasts.
-pub const fn coast_start(n: usize) -> usize {
-    n - n / 4
+fn probe_and_record<const N: usize, D: Drive, L: Link, W: Watchdog>(
+    bench: &mut Bench<D, L, W>,
+    store: &mut RecordStore<N>,
+) -> Result<Plan, JobEnd> {
+    let limits = bench.limits;
+    let rest = rest_and_offset(bench)?;
+    bench.current_offset = rest.current_offset;
+    let ramp = ramp(bench, &rest)?;
+    let electrical = electrical_step(bench, &rest, &ramp)?;
+    let floor = ramp.breakaway.unwrap_or(0.0);
+    let seconds =
+        (MECHANICAL_BUDGET * limits.budget).min(bench.left() - RECORDS_BUDGET * limits.budget);
+    let mechanical = mechanical_step(bench, &rest, &electrical, floor, seconds)?;
+    let probe_seconds = bench.seconds();
+    let d = design(
+        &limits,
+        bench.dt(),
+        N,
+        probe_seconds,
+        &ramp,
+        &electrical,
+        &mechanical,
+    )
+    .map_err(JobEnd::Refused)?;
+    let plan = plan(
+        &d,
+        bench.dt(),
+        &rest,
+        &ramp,
+        &electrical,
+        &mechanical,
+        probe_seconds,
+    );
+    bench.link().send(&BoardMessage::Planned(plan));
+    bench.enter(JobStage::Experiment);
+    store.clear(true);
+    record_designed(bench, store, &d, &rest)?;
+    Ok(plan)
 }
 
-/// Input of sample `k` of the commissioning experiment of `n` samples at step `dt` within
-/// `voltage`: the voltage steps ½ → 1 → ¼ of the limit ([`Profile::Steps`], seed Section 6
-/// speed changes) over the first three quarters, then a coast-down (bridge open) over the
-/// last quarter. The steps excite the electrical and mechanical modes with the current
-/// measured; the coast-down shows the friction alone (seed Eq. 4 with `i = 0`), which
-/// separates Coulomb from viscous friction without the electrical parameters.
-pub fn commissioning_input(k: usize, n: usize, dt: f32, voltage: f32) -> Bridge {
-    let coast_from = coast_start(n);
-    if k >= coast_from {
-        return Bridge::Open;
+/// The two records of design `d`: the slow one at once (it takes over from the probe's
+/// mechanical step), then, once the shaft is quiet, the fast one. A guard (a current or
+/// speed nearing its limit) ends it as a trip.
+fn record_designed<const N: usize, D: Drive, L: Link, W: Watchdog>(
+    bench: &mut Bench<D, L, W>,
+    store: &mut RecordStore<N>,
+    d: &Design,
+    rest: &crate::device::probe::Rest,
+) -> Result<(), JobEnd> {
+    let guard = (SPEED_SHARE + 1.0) / 2.0;
+    let n = d.slow.samples;
+    let slow = record(bench, store, d.slow, guard, Some(coast_start(n)), |k| {
+        slow_input(k, n, d.volts)
+    })?;
+    quiet(bench, rest, 0.05 * bench.limits.budget)?;
+    let n = d.fast.samples;
+    let fast = slow
+        && record(bench, store, d.fast, guard, None, |k| {
+            fast_input(k, n, d.volts)
+        })?;
+    match fast {
+        true => Ok(()),
+        false => Err(JobEnd::Refused(Refusal::Trip)),
     }
-    let steps = Experiment {
-        profile: Profile::Steps,
-        voltage,
-        duration: dt * coast_from as f32,
-        load_torque: 0.0,
-    };
-    // min/max rather than clamp: clamp's NaN/order assertion would link float formatting
-    // (about 10 KB of flash) for a panic that cannot happen here.
-    Bridge::Drive(steps.at(k as f32 * dt).v.min(voltage).max(-voltage))
+}
+
+/// The plan sent to the host: what the probe measured and the records designed from it.
+fn plan(
+    d: &Design,
+    dt: f32,
+    rest: &crate::device::probe::Rest,
+    ramp: &crate::device::probe::Ramp,
+    electrical: &crate::device::probe::Electrical,
+    mechanical: &crate::device::probe::Mechanical,
+    probe_seconds: f32,
+) -> Plan {
+    let drive_samples = d.slow.drive_samples() + d.fast.drive_samples();
+    Plan {
+        current_offset: rest.current_offset,
+        breakaway_volts: ramp.breakaway.unwrap_or(f32::NAN),
+        ra: electrical.ra,
+        tau_e: electrical.tau_e,
+        kv: mechanical.kv,
+        tau_m: mechanical.tau_m,
+        volts: d.volts,
+        fast_dt: d.fast.dt(dt),
+        fast_samples: d.fast.samples as u16,
+        slow_dt: d.slow.dt(dt),
+        slow_samples: d.slow.samples as u16,
+        probe_seconds,
+        planned_seconds: probe_seconds + drive_samples as f32 * dt,
+    }
 }
 
 /// The problem a board solves when it commissions itself: the five motor parameters within
-/// the seed's Table 1 and Coulomb friction `tc` (which the coast-down pins), the other
-/// effects left out.
-pub fn commissioning_spec() -> ProblemSpec {
+/// the seed's Table 1 and Coulomb friction `tc` (which the coast-down pins) up to the largest
+/// torque the drive can apply by the probe's Kv (1.5 Kv I_max, so that a shaft the drive
+/// turns always lies inside; at least the catalogue's bound), the other effects left out.
+pub fn commissioning_spec(plan: &Plan, limits: &Limits) -> ProblemSpec {
     let mut spec = ProblemSpec::default();
     spec.free(ParamId::Tc);
+    let (lo, hi) = ParamId::Tc.default_bounds();
+    let drive_torque = 1.5 * plan.kv * limits.current;
+    if drive_torque > hi {
+        // Finite and above a valid bound: it is a valid bound.
+        let _ = spec.set_bounds(ParamId::Tc, lo, drive_torque);
+    }
     spec
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::hardware::Sample;
+    use crate::device::hardware::{Bridge, Sample};
     use crate::device::plant::{SimulatedPlant, DEMO_FRICTION};
     use crate::model::record::Record;
 
@@ -156,17 +166,10 @@ mod tests {
     const VOLTAGE: f32 = 50.0;
 
     #[test]
-    fn the_experiment_ends_with_a_coast_down_in_which_friction_alone_slows_the_shaft() {
+    fn the_slow_record_ends_with_a_coast_down_in_which_friction_alone_slows_the_shaft() {
         let (n, dt, volts) = (SAMPLES, 0.01, VOLTAGE);
         let coast = coast_start(n);
-        assert_eq!(coast, 1500);
-        let inputs: Vec<Bridge> = (0..n)
-            .map(|k| commissioning_input(k, n, dt, volts))
-            .collect();
-        assert_eq!(inputs[0], Bridge::Drive(0.5 * volts));
-        assert_eq!(inputs[700], Bridge::Drive(volts));
-        assert_eq!(inputs[coast - 1], Bridge::Drive(0.25 * volts));
-        assert!(inputs[coast..].iter().all(|b| *b == Bridge::Open));
+        let inputs: Vec<Bridge> = (0..n).map(|k| slow_input(k, n, volts)).collect();
         // Run it on a noise-free plant: in the coast-down no current flows and the speed
         // follows seed Eq. 4 with i = 0, w(t) = (w0 + tc/B) e^(-B t / J) - tc/B.
         let p = crate::device::plant::demo_motor();
@@ -188,7 +191,7 @@ mod tests {
     }
 
     #[test]
-    fn a_noise_free_commissioning_record_is_the_models_own_simulation_bit_for_bit() {
+    fn a_noise_free_slow_record_is_the_models_own_simulation_bit_for_bit() {
         // The plant and the fit open the bridge at the same sample: the true parameters
         // reproduce every reading exactly, so a coast-down one step early or late would show.
         let (n, truth) = (SAMPLES, crate::device::plant::demo_motor());

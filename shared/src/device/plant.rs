@@ -28,8 +28,13 @@ pub struct SimulatedPlant {
     noise_current: f32,
     /// How often the drive was stopped (the tests check that every trip stops it).
     pub stopped: u32,
+    /// Samples taken (each [`Drive::step`] or [`Drive::coast`]).
+    pub samples: u32,
     /// Offsets of the speed [rad/s] and current [A] readings (zero for healthy sensors).
     pub offset: Sample,
+    /// Resolution of the speed [rad/s] and current [A] readings (an ADC's count; zero: none):
+    /// each reading is rounded to a whole number of counts.
+    pub resolution: Sample,
 }
 
 impl SimulatedPlant {
@@ -49,7 +54,12 @@ impl SimulatedPlant {
             noise_omega,
             noise_current,
             stopped: 0,
+            samples: 0,
             offset: Sample {
+                omega: 0.0,
+                current: 0.0,
+            },
+            resolution: Sample {
                 omega: 0.0,
                 current: 0.0,
             },
@@ -58,15 +68,30 @@ impl SimulatedPlant {
 }
 
 impl SimulatedPlant {
-    /// The sensors now, with their offsets and noise.
+    /// The sensors now, with their offsets and noise, in counts of their resolution.
     fn read(&mut self) -> Sample {
         let r = self.sim.reading();
+        let omega = r.omega + self.offset.omega + self.noise_omega * rng::normal(&mut self.rng);
+        let current =
+            r.current + self.offset.current + self.noise_current * rng::normal(&mut self.rng);
         Sample {
-            omega: r.omega + self.offset.omega + self.noise_omega * rng::normal(&mut self.rng),
-            current: r.current
-                + self.offset.current
-                + self.noise_current * rng::normal(&mut self.rng),
+            omega: counted(omega, self.resolution.omega),
+            current: counted(current, self.resolution.current),
         }
+    }
+
+    /// The shaft speed now [rad/s], as the model has it (no sensor).
+    pub fn true_omega(&self) -> f32 {
+        self.sim.omega()
+    }
+}
+
+/// `x` rounded to a whole number of `count`s (unchanged for a zero count).
+fn counted(x: f32, count: f32) -> f32 {
+    if count > 0.0 {
+        libm::roundf(x / count) * count
+    } else {
+        x
     }
 }
 
@@ -76,6 +101,7 @@ impl Drive for SimulatedPlant {
     }
 
     fn step(&mut self, volts: f32) -> Sample {
+        self.samples += 1;
         let sample = self.read();
         self.sim.close_circuit();
         self.sim.advance(volts, 0.0);
@@ -83,6 +109,7 @@ impl Drive for SimulatedPlant {
     }
 
     fn coast(&mut self) -> Sample {
+        self.samples += 1;
         let sample = self.read();
         self.sim.open_circuit();
         self.sim.advance(0.0, 0.0);

@@ -6,9 +6,10 @@
 //! traits of [`crate::device::hardware`]; the tests below drive it with the simulated plant
 //! of [`crate::device::plant`].
 
-use crate::device::commissioning::{commissioning_spec, run_experiment, safety_checks, Limits};
+use crate::device::commissioning::{commissioning_spec, run_experiment};
 use crate::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
 use crate::device::job::{abort_requested, fail, refuse, JobEnd};
+use crate::device::limits::Limits;
 use crate::device::record_store::RecordStore;
 use crate::device::report::motor_report;
 use crate::fit::identify::{identify, Identification, IdentifyConfig, Pipeline, Progress, Stage};
@@ -167,11 +168,9 @@ impl<'s, const N: usize> Service<'s, N> {
                     return;
                 }
                 let s = &mut *self.store;
-                s.dt = dt;
-                s.len = 0;
+                s.clear(with_current);
+                s.open(dt);
                 s.expected = samples as usize;
-                s.with_current = with_current;
-                s.coast_from = None;
                 let first = BoardMessage::ChunkOk { next: 0 };
                 hw.link.send(&first);
             }
@@ -183,30 +182,34 @@ impl<'s, const N: usize> Service<'s, N> {
             } => {
                 let s = &mut *self.store;
                 let n = v.len();
+                let len = s.streamed();
                 // A repeat of the last chunk (its acknowledgement was lost) is acknowledged again.
                 // Subtracted, not added: `offset + n` overflows the board's 32-bit usize.
-                if n > 0 && s.len.checked_sub(n) == Some(offset as usize) {
-                    hw.link.send(&BoardMessage::ChunkOk { next: s.len as u32 });
+                if n > 0 && len.checked_sub(n) == Some(offset as usize) {
+                    hw.link.send(&BoardMessage::ChunkOk { next: len as u32 });
                     return;
                 }
-                let ok = offset as usize == s.len
+                let ok = s.count == 1
+                    && offset as usize == len
                     && omega.len() == n
                     && (!s.with_current || current.len() == n)
-                    && s.len + n <= s.expected;
+                    && len + n <= s.expected;
                 if !ok {
                     refuse(&mut hw.link, Refusal::BadChunk);
                     return;
                 }
                 for k in 0..n {
-                    s.v[s.len + k] = v[k];
-                    s.omega[s.len + k] = omega[k];
-                    s.current[s.len + k] = if s.with_current { current[k] } else { 0.0 };
+                    let i = if s.with_current { current[k] } else { 0.0 };
+                    s.push(0, v[k], omega[k], i);
                 }
-                s.len += n;
-                hw.link.send(&BoardMessage::ChunkOk { next: s.len as u32 });
+                let next = BoardMessage::ChunkOk {
+                    next: s.streamed() as u32,
+                };
+                hw.link.send(&next);
             }
             HostMessage::Identify { seed, pipeline } => {
-                if self.store.len != self.store.expected || self.store.len == 0 {
+                let len = self.store.streamed();
+                if self.store.count != 1 || len != self.store.expected || len == 0 {
                     refuse(&mut hw.link, Refusal::BadChunk);
                     return;
                 }
@@ -244,10 +247,10 @@ impl<'s, const N: usize> Service<'s, N> {
         hw: &mut Hardware<L, D, P, W>,
         store: bool,
     ) -> Result<MotorReport, JobEnd> {
-        let record = [self.store.record()];
+        let records = self.store.records();
         let mut aborted = false;
         let (link, watchdog) = (&mut hw.link, &mut hw.watchdog);
-        let result = identify(&record, spec, cfg, |p: &Progress| {
+        let result = identify(&records, spec, cfg, |p: &Progress| {
             watchdog.feed();
             link.send(&BoardMessage::Progress {
                 stage: match p.stage {
@@ -277,29 +280,29 @@ impl<'s, const N: usize> Service<'s, N> {
         fail(end, &mut hw.link)
     }
 
-    /// Self-commissioning: safety checks, then a bounded experiment over the record's
-    /// length (see [`commissioning_input`]: seed Section 6 speed changes, then a coast-down
-    /// for friction; a trip of the current or speed limit stops the drive and aborts), read
-    /// on tacho and current, identification in fixed memory with progress (the board
+    /// Self-commissioning ([`crate::device::commissioning`]): the probe within the limits
+    /// (a motor that cannot be commissioned within them is refused with its reason), the
+    /// experiment designed from it (its plan sent), its slow and fast records read on tacho
+    /// and current, identification of both in fixed memory with progress (the board
     /// pipeline, Coulomb friction free: [`commissioning_spec`]), store, report.
     pub fn commission<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
         &mut self,
         seed: u64,
         hw: &mut Hardware<L, D, P, W>,
     ) -> Result<MotorReport, JobEnd> {
-        if let Err(r) = safety_checks(&self.limits, &mut hw.drive, &mut hw.watchdog) {
-            hw.drive.stop();
-            return fail(JobEnd::Refused(r), &mut hw.link);
-        }
-        run_experiment(
+        let recorded = run_experiment(
             self.store,
             &self.limits,
             &mut hw.link,
             &mut hw.drive,
             &mut hw.watchdog,
-        )?;
+        );
+        let plan = match recorded {
+            Ok(plan) => plan,
+            Err(end) => return fail(end, &mut hw.link),
+        };
         self.identify_and_report(
-            &commissioning_spec(),
+            &commissioning_spec(&plan, &self.limits),
             &IdentifyConfig::board(seed),
             hw,
             true,

@@ -37,10 +37,11 @@ const CAPACITY: usize = 64;
 const CASES: u32 = 256;
 
 /// Link polls plus watchdog feeds that one request may take. A job on a record of
-/// [`CAPACITY`] takes about 400 (one of each per optimiser iteration, one feed per sample of
-/// commissioning), commissioning's wait for the motor to come to rest up to 2,048 more: only
-/// a runaway loop reaches this.
-const STEP_BOUND: u32 = 20_000;
+/// [`CAPACITY`] takes about 400 (one of each per optimiser iteration); commissioning feeds
+/// once per drive sample and polls every tenth of a second over at most its time budget
+/// (60,000 samples of the tests' 1 kHz drive), and its fit of two records takes some
+/// thousands more: only a runaway loop reaches this.
+const STEP_BOUND: u32 = 90_000;
 
 /// Step of the records uploaded [s].
 const DT: f32 = 0.01;
@@ -110,7 +111,10 @@ impl Model {
             prop_assert!(sent.is_empty(), "unasked: {sent:?}");
             return Ok(());
         };
-        let progress = |m: &&BoardMessage| matches!(m, BoardMessage::Progress { .. });
+        // Progress, and a commissioning's plan, come before the final reply.
+        let progress = |m: &&BoardMessage| {
+            matches!(m, BoardMessage::Progress { .. } | BoardMessage::Planned(_))
+        };
         let finals: Vec<&BoardMessage> = sent.iter().filter(|m| !progress(m)).collect();
         let aborted = during.last() == Some(&HostMessage::Abort);
         let busy = during.len() - usize::from(aborted);
@@ -235,6 +239,8 @@ impl Model {
                         Refusal::Trip
                         | Refusal::NotAtRest
                         | Refusal::SensorFault
+                        | Refusal::NoMotion
+                        | Refusal::TooFast
                         | Refusal::InvalidRecord,
                     ) => {}
                     _ => return fail(),

@@ -1,7 +1,6 @@
 //! Tests of the service state machine (`device::service`), driven by the simulated plant.
 
 use super::*;
-use crate::device::commissioning::SAFETY_SAMPLES;
 use crate::device::plant::{SimulatedPlant, DEMO_FRICTION};
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
@@ -18,10 +17,17 @@ struct TestLink {
     polls: u32,
     received: Vec<HostMessage>,
     sent: Vec<BoardMessage>,
+    /// Polls made when the first progress of a fit (not of the experiment) was sent.
+    polls_at_fit: Option<u32>,
 }
 
 impl Link for TestLink {
     fn send(&mut self, msg: &BoardMessage) {
+        if let BoardMessage::Progress { stage, .. } = msg {
+            if !matches!(stage, JobStage::Probe | JobStage::Experiment) {
+                self.polls_at_fit.get_or_insert(self.polls);
+            }
+        }
         self.sent.push(msg.clone());
     }
     fn poll(&mut self) -> Option<HostMessage> {
@@ -75,11 +81,7 @@ impl Watchdog for CountingWatchdog {
     }
 }
 
-const LIMITS: Limits = Limits {
-    voltage: 50.0,
-    current: 40.0,
-    speed: 500.0,
-};
+const LIMITS: Limits = Limits::DEFAULT;
 const SAMPLES: usize = 2000;
 
 type TestHardware = Hardware<TestLink, SimulatedPlant, RamParams, CountingWatchdog>;
@@ -93,10 +95,13 @@ fn hardware(plant: SimulatedPlant) -> TestHardware {
     }
 }
 
-/// The seed's motor with Coulomb friction `tc`, sampled at 100 Hz with sensor noise.
+/// The drive's sample period in these tests [s] (1 kHz).
+const DT: f32 = 1e-3;
+
+/// The seed's motor with Coulomb friction `tc`, sampled at [`DT`] with sensor noise.
 fn plant_with_friction(tc: f32) -> SimulatedPlant {
     let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
-    SimulatedPlant::new(&p, 0.01, 0.5, 0.02, 7).unwrap()
+    SimulatedPlant::new(&p, DT, 0.5, 0.02, 7).unwrap()
 }
 
 fn seed_plant() -> SimulatedPlant {
@@ -114,12 +119,6 @@ fn motor_value(report: &MotorReport, k: usize) -> f32 {
 fn friction_of(report: &MotorReport) -> crate::wire::protocol::Estimate {
     let tc = report.get(ParamId::Tc.index() as u8);
     tc.expect("commissioning identifies friction")
-}
-
-fn progress_count(sent: &[BoardMessage]) -> u32 {
-    sent.iter()
-        .filter(|m| matches!(m, BoardMessage::Progress { .. }))
-        .count() as u32
 }
 
 #[test]
@@ -150,7 +149,18 @@ fn first_power_up_commissions_then_boots_into_service() {
         Some(&BoardMessage::Identified(report.clone()))
     );
     // Every sample and every progress report fed the watchdog.
-    assert!(hw.watchdog.0 > (SAFETY_SAMPLES + SAMPLES) as u32 + progress_count(&hw.link.sent) - 8);
+    let fit_reports = hw
+        .link
+        .sent
+        .iter()
+        .filter(|m| {
+            matches!(m, BoardMessage::Progress { stage, .. }
+                if !matches!(stage, JobStage::Probe | JobStage::Experiment))
+        })
+        .count() as u32;
+    assert!(hw.watchdog.0 >= hw.drive.samples + fit_reports);
+    // The whole experiment within its budget.
+    assert!(hw.drive.samples as f32 * DT <= LIMITS.budget);
     // The next power-up finds the parameters and runs no experiment.
     let mut service = Service::new(&mut store, LIMITS);
     hw.link.sent.clear();
@@ -189,12 +199,40 @@ fn a_motor_without_coulomb_friction_commissions_with_none() {
     );
 }
 
+/// The plan a commissioning sent.
+fn plan_of(sent: &[BoardMessage]) -> crate::wire::protocol::Plan {
+    let plan = sent.iter().find_map(|m| match m {
+        BoardMessage::Planned(p) => Some(*p),
+        _ => None,
+    });
+    plan.expect("the probe sent its plan")
+}
+
+/// Assert the seed motor's five parameters and friction within 3 %.
+fn assert_seed_motor(report: &MotorReport) {
+    let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
+    for (k, want) in truth.into_iter().enumerate() {
+        let got = motor_value(report, k);
+        assert!((got / want - 1.0).abs() < 0.03, "{k}: {got} vs {want}");
+    }
+    let tc = friction_of(report).value;
+    assert!((tc / DEMO_FRICTION - 1.0).abs() < 0.03, "tc {tc}");
+}
+
 #[test]
-fn a_current_sensor_offset_fails_the_safety_check_before_any_voltage() {
+fn a_current_sensor_offset_is_measured_and_removed_and_a_gross_one_refused() {
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
     let mut plant = seed_plant();
     plant.offset.current = 2.0;
+    let mut hw = hardware(plant);
+    let report = service.commission(1, &mut hw).expect("commissioned");
+    let offset = plan_of(&hw.link.sent).current_offset;
+    assert!((offset - 2.0).abs() < 0.01, "offset {offset}");
+    assert_seed_motor(&report);
+    // An offset of 12.5 % of the limit is a fault, found before any voltage is applied.
+    let mut plant = seed_plant();
+    plant.offset.current = 5.0;
     let mut hw = hardware(plant);
     let end = JobEnd::Refused(Refusal::SensorFault);
     assert_eq!(
@@ -207,9 +245,138 @@ fn a_current_sensor_offset_fails_the_safety_check_before_any_voltage() {
     assert_eq!(hw.params.0, None);
     assert_eq!(hw.drive.stopped, 1);
     assert_eq!(
-        hw.link.sent,
-        vec![BoardMessage::Refused(Refusal::SensorFault)]
+        hw.link.sent.last(),
+        Some(&BoardMessage::Refused(Refusal::SensorFault))
     );
+    assert!(!hw
+        .link
+        .sent
+        .iter()
+        .any(|m| matches!(m, BoardMessage::Planned(_))));
+}
+
+/// A drive that remembers the largest current it read, and from sample `fault_at` on reads
+/// `fault` amps more (a shorted winding, a broken sensor).
+struct Watched {
+    plant: SimulatedPlant,
+    largest: f32,
+    fault_at: u32,
+    fault: f32,
+}
+
+impl Drive for Watched {
+    fn dt(&self) -> f32 {
+        self.plant.dt()
+    }
+    fn step(&mut self, volts: f32) -> crate::device::hardware::Sample {
+        self.read(|p| p.step(volts))
+    }
+    fn coast(&mut self) -> crate::device::hardware::Sample {
+        self.read(|p| p.coast())
+    }
+    fn stop(&mut self) {
+        self.plant.stop();
+    }
+}
+
+impl Watched {
+    fn new(plant: SimulatedPlant) -> Self {
+        Watched {
+            plant,
+            largest: 0.0,
+            fault_at: u32::MAX,
+            fault: 0.0,
+        }
+    }
+    fn read(
+        &mut self,
+        f: impl FnOnce(&mut SimulatedPlant) -> crate::device::hardware::Sample,
+    ) -> crate::device::hardware::Sample {
+        let mut s = f(&mut self.plant);
+        if self.plant.samples >= self.fault_at {
+            s.current += self.fault;
+        }
+        self.largest = self.largest.max(s.current.abs());
+        s
+    }
+}
+
+fn watched_hardware(drive: Watched) -> Hardware<TestLink, Watched, RamParams, CountingWatchdog> {
+    Hardware {
+        link: TestLink::default(),
+        drive,
+        params: RamParams::default(),
+        watchdog: CountingWatchdog::default(),
+    }
+}
+
+#[test]
+fn a_tight_current_limit_is_kept_and_the_motor_still_commissioned() {
+    // The seed motor draws 50 V / 3.412 Ohm = 14.7 A from rest at 50 V: with 5 A allowed the
+    // probe finds Ra first and the experiment stays under the limit.
+    let mut store = RecordStore::<SAMPLES>::new();
+    let limits = Limits {
+        current: 5.0,
+        ..LIMITS
+    };
+    let mut service = Service::new(&mut store, limits);
+    let mut hw = watched_hardware(Watched::new(seed_plant()));
+    let report = service.commission(1, &mut hw).expect("commissioned");
+    assert_seed_motor(&report);
+    assert!(hw.drive.largest < 0.9 * 5.0, "{} A", hw.drive.largest);
+    assert!(plan_of(&hw.link.sent).volts < 0.7 * 5.0 * 3.412 * 1.1);
+}
+
+#[test]
+fn a_break_away_beyond_the_current_limit_is_refused_before_any_trip() {
+    // Coulomb friction of 1 N m needs 1 / 0.1604 = 6.2 A to turn the shaft: 5 A cannot.
+    let mut store = RecordStore::<SAMPLES>::new();
+    let limits = Limits {
+        current: 5.0,
+        ..LIMITS
+    };
+    let mut service = Service::new(&mut store, limits);
+    let mut hw = watched_hardware(Watched::new(plant_with_friction(1.0)));
+    let end = service.commission(1, &mut hw).unwrap_err();
+    assert_eq!(end, JobEnd::Refused(Refusal::NoMotion));
+    assert!(hw.drive.largest < 5.0, "{} A", hw.drive.largest);
+    assert_eq!(hw.drive.plant.stopped, 1);
+    assert_eq!(hw.params.0, None);
+}
+
+#[test]
+fn a_current_trip_stops_the_drive_and_stores_nothing() {
+    // A fault that reads 100 A one second in: the bench trips at once.
+    let mut store = RecordStore::<SAMPLES>::new();
+    let mut service = Service::new(&mut store, LIMITS);
+    let mut drive = Watched::new(seed_plant());
+    drive.fault_at = (1.0 / DT) as u32;
+    drive.fault = 100.0;
+    let mut hw = watched_hardware(drive);
+    let end = JobEnd::Refused(Refusal::Trip);
+    assert_eq!(
+        service.boot(&mut hw),
+        Boot::NotCommissioned {
+            end,
+            found: NotStored::Empty
+        }
+    );
+    assert_eq!(hw.params.0, None);
+    assert_eq!(hw.drive.plant.stopped, 1);
+    assert_eq!(
+        hw.drive.plant.samples,
+        drive_fault_sample(),
+        "stopped at the trip"
+    );
+    assert_eq!(
+        hw.link.sent.last(),
+        Some(&BoardMessage::Refused(Refusal::Trip))
+    );
+}
+
+/// The sample at which [`a_current_trip_stops_the_drive_and_stores_nothing`]'s fault shows.
+fn drive_fault_sample() -> u32 {
+    (1.0 / DT) as u32
 }
 
 #[test]
@@ -247,43 +414,20 @@ fn commissioning_again_waits_for_the_motor_to_stop_turning() {
 }
 
 #[test]
-fn a_current_trip_stops_the_drive_and_stores_nothing() {
-    let mut store = RecordStore::<SAMPLES>::new();
-    // The seed motor draws 50 V / 3.412 Ohm = 14.7 A at the step: a 5 A limit trips.
-    let limits = Limits {
-        current: 5.0,
-        ..LIMITS
-    };
-    let mut service = Service::new(&mut store, limits);
-    let mut hw = hardware(seed_plant());
-    let end = JobEnd::Refused(Refusal::Trip);
-    assert_eq!(
-        service.boot(&mut hw),
-        Boot::NotCommissioned {
-            end,
-            found: NotStored::Empty
-        }
-    );
-    assert_eq!(hw.params.0, None);
-    assert_eq!(hw.drive.stopped, 1);
-    assert_eq!(
-        hw.link.sent.last(),
-        Some(&BoardMessage::Refused(Refusal::Trip))
-    );
-}
-
-#[test]
 fn abort_during_identification_stores_nothing_and_requests_meanwhile_are_busy() {
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
+    // A first run counts the polls of the experiment (the plant is seeded: the same run).
     let mut hw = hardware(seed_plant());
-    // Polls 1..=8 fall in the experiment (every 256 samples), later ones in the fit: the
-    // hello comes at the fit's first poll, the abort at its second.
+    let _ = service.commission(BOOT_SEED, &mut hw);
+    let fit = hw.link.polls_at_fit.expect("the fit reported");
+    // The hello comes at the fit's first poll, the abort at its second.
+    let mut hw = hardware(seed_plant());
     let hello = HostMessage::Hello {
         version: PROTOCOL_VERSION,
     };
-    hw.link.incoming.push_back((8, hello));
-    hw.link.incoming.push_back((9, HostMessage::Abort));
+    hw.link.incoming.push_back((fit, hello));
+    hw.link.incoming.push_back((fit + 1, HostMessage::Abort));
     assert_eq!(
         service.boot(&mut hw),
         Boot::NotCommissioned {

@@ -67,6 +67,18 @@ pub fn synthesize(
     Ok(())
 }
 
+/// A motor drawn log-uniformly from the seed's Table 1 box with random seed `seed`, no
+/// effects (the benchmarks' motors).
+pub fn table_one_motor(seed: u64) -> ModelParams {
+    let mut r = rng::seeded(seed);
+    let mut truth = ModelParams::SEED_MOTOR;
+    for id in crate::param_id::ParamId::MOTOR {
+        let (lo, hi) = id.default_bounds();
+        truth.set(id, lo * (hi / lo).powf(rng::unit(&mut r)));
+    }
+    truth
+}
+
 /// A benchmark case: a motor drawn log-uniformly from the seed's Table 1 box (seed `seed`),
 /// a `steps` experiment of `samples` samples lasting five slowest time constants per step,
 /// white noise of 1 % of the peak speed and current. Shared by the benchmark
@@ -90,13 +102,7 @@ impl TableOneCase {
     /// The case of `seed` with `samples` samples.
     pub fn new(seed: u64, samples: usize) -> TableOneCase {
         use crate::model::profile::{settling_duration, Profile};
-        use crate::param_id::ParamId;
-        let mut r = rng::seeded(seed);
-        let mut truth = ModelParams::SEED_MOTOR;
-        for id in ParamId::MOTOR {
-            let (lo, hi) = id.default_bounds();
-            truth.set(id, lo * (hi / lo).powf(rng::unit(&mut r)));
-        }
+        let truth = table_one_motor(seed);
         let duration = settling_duration(&truth, Profile::Steps);
         let dt = duration / samples as f32;
         let exp = Experiment {

@@ -114,6 +114,9 @@ fn refusal() -> impl Strategy<Value = Refusal> {
             Refusal::SensorFault,
             Refusal::Busy,
             Refusal::PipelineTooLarge,
+            Refusal::NoMotion,
+            Refusal::TooFast,
+            Refusal::BadLimits,
         ]),
     ]
 }
@@ -139,6 +142,44 @@ pub(crate) fn motor_report() -> impl Strategy<Value = MotorReport> {
         })
 }
 
+/// Any commissioning plan (any numbers, as a corrupt or hostile board may send).
+fn plan() -> impl Strategy<Value = Plan> {
+    (
+        [
+            float(),
+            float(),
+            float(),
+            float(),
+            float(),
+            float(),
+            float(),
+        ],
+        (
+            float(),
+            any::<u16>(),
+            float(),
+            any::<u16>(),
+            float(),
+            float(),
+        ),
+    )
+        .prop_map(|(a, b)| Plan {
+            current_offset: a[0],
+            breakaway_volts: a[1],
+            ra: a[2],
+            tau_e: a[3],
+            kv: a[4],
+            tau_m: a[5],
+            volts: a[6],
+            fast_dt: b.0,
+            fast_samples: b.1,
+            slow_dt: b.2,
+            slow_samples: b.3,
+            probe_seconds: b.4,
+            planned_seconds: b.5,
+        })
+}
+
 /// Any board reply.
 pub(crate) fn board_message() -> impl Strategy<Value = BoardMessage> {
     let stage = select(vec![
@@ -146,6 +187,7 @@ pub(crate) fn board_message() -> impl Strategy<Value = BoardMessage> {
         JobStage::Search,
         JobStage::Refine,
         JobStage::Check,
+        JobStage::Probe,
     ]);
     let not_stored = prop_oneof![
         select(vec![NotStored::Empty, NotStored::Corrupt]),
@@ -168,6 +210,7 @@ pub(crate) fn board_message() -> impl Strategy<Value = BoardMessage> {
             }
         ),
         motor_report().prop_map(BoardMessage::Identified),
+        plan().prop_map(BoardMessage::Planned),
         prop_oneof![motor_report().prop_map(Ok), not_stored.prop_map(Err)]
             .prop_map(BoardMessage::Params),
         Just(BoardMessage::Cleared),

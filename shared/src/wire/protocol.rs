@@ -6,7 +6,7 @@ use crate::capacity::MAX_ESTIMATES;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 7;
+pub const PROTOCOL_VERSION: u16 = 8;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -78,7 +78,8 @@ pub enum PipelineName {
 /// Stage of a long job, in progress reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum JobStage {
-    /// Running the commissioning experiment.
+    /// Running the commissioning experiment's records (protocol 8: `iteration` and `total`
+    /// are milliseconds of the commissioning so far and of its time budget).
     Experiment,
     /// FFO iterations.
     Search,
@@ -87,6 +88,44 @@ pub enum JobStage {
     /// The profile check of the uncertainty: its least-squares iterations, after the fit
     /// (protocol 7).
     Check,
+    /// The commissioning probe: offset, resistance and break-away, electrical and mechanical
+    /// time scales (protocol 8: `iteration` and `total` in milliseconds, as `Experiment`).
+    Probe,
+}
+
+/// What the commissioning probe measured and the experiment designed from it (protocol 8),
+/// sent before the experiment's records. Estimates of the probe are rough (within tens of
+/// per cent): they size the experiment; the fit of its records gives the parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Plan {
+    /// Current sensor offset measured at 0 V at rest and subtracted from every reading [A].
+    pub current_offset: f32,
+    /// Voltage at which the shaft broke away on the probe's ramp [V] (NaN: it did not move
+    /// before the ramp ended at its calibration current).
+    pub breakaway_volts: f32,
+    /// Armature resistance from the electrical step [ohm].
+    pub ra: f32,
+    /// Electrical time constant La/Ra from the electrical step [s].
+    pub tau_e: f32,
+    /// Back-EMF constant from the mechanical step [V s/rad].
+    pub kv: f32,
+    /// Mechanical time scale from the mechanical step [s].
+    pub tau_m: f32,
+    /// Largest voltage of the experiment's records [V].
+    pub volts: f32,
+    /// Step of the fast record (electrical mode) [s].
+    pub fast_dt: f32,
+    /// Samples of the fast record.
+    pub fast_samples: u16,
+    /// Step of the slow record (mechanical mode, ending with a coast-down) [s].
+    pub slow_dt: f32,
+    /// Samples of the slow record.
+    pub slow_samples: u16,
+    /// Time the probe took [s].
+    pub probe_seconds: f32,
+    /// Time of the whole commissioning experiment, probe included, as planned [s].
+    pub planned_seconds: f32,
 }
 
 /// An identified motor as the board reports and stores it.
@@ -193,6 +232,15 @@ pub enum Refusal {
     Busy,
     /// The pipeline needs more memory than the board has (the paper-faithful population).
     PipelineTooLarge,
+    /// Commissioning probe: the shaft did not turn at the largest voltage the limits allow
+    /// (its break-away needs more current than the current limit allows).
+    NoMotion,
+    /// Commissioning probe: the speed limit is reached at the smallest voltage that turns
+    /// the shaft (the motor cannot be run slowly enough within the speed limit).
+    TooFast,
+    /// Commissioning probe: the limits are not usable (a voltage, current, speed or time
+    /// budget that is not a finite positive number, or a budget too short for any probe).
+    BadLimits,
 }
 
 impl core::fmt::Display for Refusal {
@@ -216,6 +264,15 @@ impl core::fmt::Display for Refusal {
             Refusal::PipelineTooLarge => {
                 f.write_str("the board's memory cannot hold this pipeline (its population)")
             }
+            Refusal::NoMotion => f.write_str(
+                "probe: the shaft does not turn at the largest voltage the limits allow (its break-away needs more current than the current limit)",
+            ),
+            Refusal::TooFast => f.write_str(
+                "probe: the speed limit is reached at the smallest voltage that turns the shaft",
+            ),
+            Refusal::BadLimits => f.write_str(
+                "the commissioning limits are not finite positive numbers, or the time budget is too short",
+            ),
         }
     }
 }
@@ -259,4 +316,7 @@ pub enum BoardMessage {
     Cleared,
     /// The job was stopped on request.
     Aborted,
+    /// Commissioning: what the probe measured and the experiment it designed (protocol 8;
+    /// last, so that the older variants keep their encoding).
+    Planned(Plan),
 }

@@ -1,0 +1,111 @@
+//! Benchmark of self-commissioning (not a test): motors drawn log-uniformly from the seed's
+//! Table 1 box, each commissioned on the virtual board (the board's own commissioning code
+//! against the simulated plant) with the default limits, 12-bit quantisation of tacho and
+//! current on the limits' scales, sensor noise and Coulomb friction of 5 % of the torque the
+//! drive allows.
+//!
+//! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ] [--verbose]`
+
+use motor_id_shared::device::job::JobEnd;
+use motor_id_shared::device::limits::Limits;
+use motor_id_shared::device::plant::SimulatedPlant;
+use motor_id_shared::device::virtual_board::commission;
+use motor_id_shared::model::synth::table_one_motor;
+use motor_id_shared::param_id::ParamId;
+use motor_id_shared::wire::protocol::Refusal;
+use std::collections::BTreeMap;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let motors: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(200);
+    let rate: f32 = args
+        .iter()
+        .position(|a| a == "--rate")
+        .and_then(|k| args.get(k + 1))
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(20_000.0);
+    let verbose = args.iter().any(|a| a == "--verbose");
+    let limits = Limits::DEFAULT;
+    let mut refusals: BTreeMap<String, usize> = BTreeMap::new();
+    let (mut trips, mut like, mut like_ok, mut all_ok) = (0, 0, 0, 0);
+    let (mut pinned, mut within) = (0, 0);
+    let mut seconds = Vec::new();
+    for m in 0..motors {
+        let motor = table_one_motor(m as u64 + 1);
+        let [ra, la, j, b, kv] = ParamId::MOTOR.map(|p| motor.get(p));
+        let tc = 0.05 * kv * limits.current;
+        let truth = motor.with(ParamId::Tc, tc);
+        let tau_m = j * ra / (kv * kv + ra * b);
+        let looks_like_motor = kv * kv >= 3.0 * ra * b && la / ra < tau_m;
+        let mut plant =
+            SimulatedPlant::new(&truth, 1.0 / rate, 0.1, 0.005, m as u64 + 1).expect("plant");
+        plant.resolution.omega = 2.4 * limits.speed / 4096.0;
+        plant.resolution.current = 2.4 * limits.current / 4096.0;
+        let c = commission(plant, limits, 1, None, &mut |_| {});
+        seconds.push(c.seconds);
+        like += looks_like_motor as usize;
+        let report = match c.result {
+            Ok(r) => r,
+            Err(JobEnd::Refused(Refusal::Trip)) => {
+                trips += 1;
+                if verbose {
+                    eprintln!("TRIP {truth:?} plan {:?}", c.plan);
+                }
+                continue;
+            }
+            Err(e) => {
+                *refusals.entry(format!("{e:?}")).or_default() += 1;
+                if verbose {
+                    eprintln!("refused {e:?}: ra {ra} la {la} j {j} b {b} kv {kv} tau_m {tau_m} plan {:?}", c.plan);
+                }
+                continue;
+            }
+        };
+        let mut ok = true;
+        for id in [
+            ParamId::Ra,
+            ParamId::La,
+            ParamId::J,
+            ParamId::B,
+            ParamId::Kv,
+            ParamId::Tc,
+        ] {
+            let e = report.get(id.index() as u8).expect("six estimates");
+            let t = truth.get(id);
+            let rel = (e.value / t - 1.0).abs();
+            ok &= e.pinned() && rel <= 0.03;
+            if e.pinned() {
+                pinned += 1;
+                within += ((e.value - t).abs() <= 3.0 * e.std) as usize;
+            }
+        }
+        all_ok += ok as usize;
+        like_ok += (ok && looks_like_motor) as usize;
+        if verbose && !ok && looks_like_motor {
+            eprintln!(
+                "not all six: ra {ra} la {la} j {j} b {b} kv {kv} tc {tc} tau_m {tau_m}\n  plan {:?}\n  {:?}",
+                c.plan, report.estimates
+            );
+        }
+    }
+    seconds.sort_by(f32::total_cmp);
+    let pct = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
+    println!(
+        "motors {motors} (look like motors {like}), drive sampled at {rate} Hz, limits {limits:?}"
+    );
+    println!("trips {trips}; refusals {refusals:?}");
+    println!(
+        "all six pinned and within 3 %: whole box {:.1} %, motor-like {:.1} %",
+        pct(all_ok, motors),
+        pct(like_ok, like)
+    );
+    println!(
+        "pinned within 3 reported std: {:.1} % of {pinned}",
+        pct(within, pinned)
+    );
+    println!(
+        "experiment: median {:.1} s, longest {:.1} s",
+        seconds[seconds.len() / 2],
+        seconds.last().unwrap()
+    );
+}

@@ -1,0 +1,126 @@
+//! The drive as commissioning's stages use it: every sample at the drive's own (fastest)
+//! rate, the current sensor's offset subtracted, the limits checked at every sample (a
+//! breach stops the drive: a trip), the watchdog fed, the time counted against the budget,
+//! progress sent and an abort heard every tenth of a second.
+
+use crate::device::hardware::{Bridge, Drive, Link, Sample, Watchdog};
+use crate::device::job::{abort_requested, JobEnd};
+use crate::device::limits::Limits;
+use crate::wire::protocol::{BoardMessage, JobStage, Refusal};
+
+/// Seconds between two progress frames (and two looks for an abort).
+const PROGRESS_SECONDS: f32 = 0.1;
+
+/// Share of a limit at which a stage opens the bridge itself, before the trip.
+pub const GUARD: f32 = 0.85;
+
+/// The drive, watched.
+pub struct Bench<'a, D, L, W> {
+    drive: &'a mut D,
+    link: &'a mut L,
+    watchdog: &'a mut W,
+    /// The limits commissioning works within.
+    pub limits: Limits,
+    /// Current sensor offset subtracted from every reading [A].
+    pub current_offset: f32,
+    dt: f32,
+    samples: u32,
+    progress_every: u32,
+    stage: JobStage,
+}
+
+impl<'a, D: Drive, L: Link, W: Watchdog> Bench<'a, D, L, W> {
+    /// The drive within `limits`, time counted from now.
+    pub fn new(drive: &'a mut D, link: &'a mut L, watchdog: &'a mut W, limits: Limits) -> Self {
+        let dt = drive.dt();
+        let every = PROGRESS_SECONDS / dt;
+        Bench {
+            drive,
+            link,
+            watchdog,
+            limits,
+            current_offset: 0.0,
+            dt,
+            samples: 0,
+            progress_every: if every >= 1.0 { every as u32 } else { 1 },
+            stage: JobStage::Probe,
+        }
+    }
+
+    /// The drive's sample period [s].
+    pub fn dt(&self) -> f32 {
+        self.dt
+    }
+
+    /// Samples applied so far.
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// Time since commissioning began [s].
+    pub fn seconds(&self) -> f32 {
+        self.samples as f32 * self.dt
+    }
+
+    /// Time left of the budget [s] (negative past it).
+    pub fn left(&self) -> f32 {
+        self.limits.budget - self.seconds()
+    }
+
+    /// Report progress under `stage` from now on.
+    pub fn enter(&mut self, stage: JobStage) {
+        self.stage = stage;
+    }
+
+    /// The link, for messages between stages.
+    pub fn link(&mut self) -> &mut L {
+        self.link
+    }
+
+    /// Apply `bridge` for one sample and return the sample read at its start, the current's
+    /// offset removed. A non-finite reading stops the drive ([`Refusal::SensorFault`]); so
+    /// does a current or speed beyond its limit ([`Refusal::Trip`]) and an abort (the caller
+    /// stops the drive before anything else).
+    pub fn apply(&mut self, bridge: Bridge) -> Result<Sample, JobEnd> {
+        self.watchdog.feed();
+        let raw = self.drive.apply(bridge);
+        self.samples += 1;
+        if !(raw.omega.is_finite() && raw.current.is_finite()) {
+            return Err(self.halt(JobEnd::Refused(Refusal::SensorFault)));
+        }
+        let s = Sample {
+            omega: raw.omega,
+            current: raw.current - self.current_offset,
+        };
+        if s.current.abs() > self.limits.current || s.omega.abs() > self.limits.speed {
+            return Err(self.halt(JobEnd::Refused(Refusal::Trip)));
+        }
+        if self.samples % self.progress_every == 0 {
+            let ms = |s: f32| (s * 1000.0) as u32;
+            self.link.send(&BoardMessage::Progress {
+                stage: self.stage,
+                iteration: ms(self.seconds()),
+                total: ms(self.limits.budget),
+                evaluations: 0,
+                best: 0.0,
+            });
+            if abort_requested(self.link) {
+                return Err(self.halt(JobEnd::Aborted));
+            }
+        }
+        Ok(s)
+    }
+
+    /// Whether `s` lies beyond the [`GUARD`] share of the current limit or of `speed_share`
+    /// of the speed limit: the stage then opens the bridge itself.
+    pub fn guarded(&self, s: Sample, speed_share: f32) -> bool {
+        s.current.abs() > GUARD * self.limits.current
+            || s.omega.abs() > speed_share * self.limits.speed
+    }
+
+    /// The end of the job: the caller stops the drive at once
+    /// ([`crate::device::commissioning::run_experiment`]).
+    fn halt(&mut self, end: JobEnd) -> JobEnd {
+        end
+    }
+}

@@ -1,0 +1,210 @@
+//! The commissioning experiment designed from the probe ([`crate::device::probe`]) and the
+//! limits: one voltage, and two records that share the board's record memory.
+//!
+//! - The **slow record** covers the mechanical mode: steps of ½ → 1 → ¼ of the voltage,
+//!   each a quarter of the record, then a coast-down over the last
+//!   quarter (seed Eq. 4 with i = 0 separates Coulomb from viscous friction), spanning
+//!   [`SLOW_SPAN`] mechanical time scales when the budget allows.
+//! - The **fast record** covers the electrical mode: [`FAST_STEP`] samples per La/Ra, a step
+//!   of the voltage from 0 V and back, so that seed Eq. 1 pins Ra, La and Kv.
+//!
+//! Each record sample is the mean of an odd number of the drive's samples centred on its
+//! instant ([`crate::device::experiment`]). The voltage keeps the start current under
+//! [`CURRENT_SHARE`] of the current limit and the steady speed under
+//! [`crate::device::probe::SPEED_SHARE`] of the speed limit. In the steady state (seed
+//! Eq. 1 and 4) ω = (Kv V - Ra tc) / (Kv² + Ra B) is affine in V, from 0 at the break-away
+//! V₀ = Ra tc / Kv; so ω ≤ V / Kv always, and when the probe's step at V₁ settled with current
+//! i₁ (where Kv i₁ = B ω₁ + tc, so V₀ ≤ Ra i₁), ω ≤ (V - Ra i₁) / Kv for V ≥ V₁. The voltage
+//! is the largest these bounds keep under ω_max, divided by the step's overshoot. A motor
+//! whose break-away voltage lies above it is refused.
+
+use crate::device::limits::Limits;
+use crate::device::probe::{Electrical, Mechanical, Ramp, SPEED_SHARE};
+use crate::wire::protocol::Refusal;
+
+/// Share of the current limit the experiment's start current may reach.
+pub const CURRENT_SHARE: f32 = 0.7;
+/// Samples of the fast record per electrical time constant.
+pub const FAST_STEP: f32 = 20.0;
+/// Samples of the fast record at most.
+pub const FAST_SAMPLES: usize = 400;
+/// Mechanical time scales the slow record spans when the budget allows.
+pub const SLOW_SPAN: f32 = 6.0;
+/// Share of the budget the fast record may take at most.
+const FAST_BUDGET: f32 = 0.15;
+/// Share of the budget kept for the wait before the fast record.
+const QUIET_BUDGET: f32 = 0.05;
+
+/// One record of the experiment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RecordPlan {
+    /// Drive samples per record sample (odd).
+    pub average: u32,
+    /// Record samples.
+    pub samples: usize,
+}
+
+impl RecordPlan {
+    /// The record's step for a drive sampled every `dt` [s].
+    pub fn dt(&self, dt: f32) -> f32 {
+        self.average as f32 * dt
+    }
+
+    /// Drive samples the record takes.
+    pub fn drive_samples(&self) -> u32 {
+        self.samples as u32 * self.average
+    }
+}
+
+/// The designed experiment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Design {
+    /// Largest voltage [V].
+    pub volts: f32,
+    /// Break-away voltage [V] (0 when the probe's ramp did not turn the shaft).
+    pub floor: f32,
+    /// The slow record (first: it takes over from the probe's mechanical step).
+    pub slow: RecordPlan,
+    /// The fast record.
+    pub fast: RecordPlan,
+}
+
+/// The largest odd number not above `x`, at least 1 (a record never outlasts its span).
+fn odd(x: f32) -> u32 {
+    let m = if x.is_finite() && x > 1.0 {
+        x.min(1e6) as u32
+    } else {
+        1
+    };
+    if m % 2 == 1 {
+        m
+    } else {
+        m - 1
+    }
+}
+
+/// The experiment for a motor the probe measured, with `capacity` record samples, a drive
+/// sampled every `dt`, and `elapsed` seconds of the budget spent. Refused when the speed
+/// limit leaves no voltage above the break-away ([`Refusal::TooFast`]) or the current limit
+/// none ([`Refusal::NoMotion`]).
+pub fn design(
+    limits: &Limits,
+    dt: f32,
+    capacity: usize,
+    elapsed: f32,
+    ramp: &Ramp,
+    electrical: &Electrical,
+    mechanical: &Mechanical,
+) -> Result<Design, Refusal> {
+    let floor = ramp.breakaway.unwrap_or(0.0);
+    let by_current = CURRENT_SHARE * limits.current * electrical.ra;
+    let settled_drop = match mechanical.settled {
+        true => electrical.ra * mechanical.current.max(0.0),
+        false => 0.0,
+    };
+    let by_speed = mechanical.kv * SPEED_SHARE * limits.speed / mechanical.overshoot + settled_drop;
+    let volts = limits.voltage.min(by_current).min(by_speed);
+    // The ramp reads the break-away late on a heavy shaft (it must gather speed to be seen):
+    // only a voltage under half of it is surely below the true break-away.
+    if volts <= 0.5 * floor {
+        return Err(if by_speed <= by_current {
+            Refusal::TooFast
+        } else {
+            Refusal::NoMotion
+        });
+    }
+    let fast_samples = FAST_SAMPLES.min(capacity / 4);
+    let fast_span =
+        (electrical.tau_e / FAST_STEP * fast_samples as f32).min(FAST_BUDGET * limits.budget);
+    let fast = RecordPlan {
+        average: odd(fast_span / (fast_samples as f32 * dt)),
+        samples: fast_samples,
+    };
+    let left =
+        limits.budget - elapsed - fast.drive_samples() as f32 * dt - QUIET_BUDGET * limits.budget;
+    let slow_span = (SLOW_SPAN * mechanical.tau_m).min(left).max(0.0);
+    let slow_capacity = capacity - fast_samples;
+    let average = odd(slow_span / (slow_capacity as f32 * dt));
+    let samples = match average {
+        1 => ((slow_span / dt) as usize).clamp(16, slow_capacity),
+        _ => slow_capacity,
+    };
+    Ok(Design {
+        volts,
+        floor,
+        slow: RecordPlan { average, samples },
+        fast,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f32 = 5e-5;
+
+    fn probe(ra: f32, tau_e: f32, kv: f32, tau_m: f32) -> (Ramp, Electrical, Mechanical) {
+        let ramp = Ramp {
+            breakaway: Some(1.0),
+            volts: 1.0,
+            current: 2.0,
+        };
+        let electrical = Electrical {
+            ra,
+            tau_e,
+            volts: 4.0,
+        };
+        let mechanical = Mechanical {
+            kv,
+            tau_m,
+            overshoot: 1.0,
+            volts: 10.0,
+            current: 0.0,
+            capped: false,
+            settled: true,
+        };
+        (ramp, electrical, mechanical)
+    }
+
+    #[test]
+    fn the_records_fit_the_budget_and_the_memory_and_resolve_both_modes() {
+        let limits = Limits::DEFAULT;
+        for (tau_e, tau_m) in [(1e-3, 0.01), (0.0168, 4.2), (0.2, 30.0), (1e-4, 1e-3)] {
+            let (r, e, m) = probe(3.4, tau_e, 0.16, tau_m);
+            let d = design(&limits, DT, 2000, 3.0, &r, &e, &m).unwrap();
+            assert!(d.slow.samples + d.fast.samples <= 2000);
+            assert!(d.slow.average % 2 == 1 && d.fast.average % 2 == 1);
+            let seconds = 3.0
+                + (d.slow.drive_samples() + d.fast.drive_samples()) as f32 * DT
+                + QUIET_BUDGET * limits.budget;
+            assert!(seconds <= limits.budget, "{tau_e} {tau_m}: {seconds} s");
+            let fast_dt = d.fast.dt(DT);
+            assert!(fast_dt <= (tau_e / 10.0).max(DT), "{tau_e}: {fast_dt}");
+            let slow_span = d.slow.samples as f32 * d.slow.dt(DT);
+            assert!(
+                slow_span >= (5.0 * tau_m).min(40.0),
+                "{tau_m}: {slow_span} s"
+            );
+        }
+    }
+
+    #[test]
+    fn the_voltage_keeps_current_and_speed_under_their_shares() {
+        let limits = Limits::DEFAULT;
+        // Low resistance: the current limit binds (0.7 x 40 A x 0.5 ohm = 14 V).
+        let (r, e, m) = probe(0.5, 0.01, 1.0, 1.0);
+        let d = design(&limits, DT, 2000, 3.0, &r, &e, &m).unwrap();
+        assert!((d.volts - 14.0).abs() < 1e-4, "{}", d.volts);
+        // Small Kv: the speed limit binds (0.01 x 350 rad/s = 3.5 V).
+        let (r, e, m) = probe(10.0, 0.01, 0.01, 1.0);
+        let d = design(&limits, DT, 2000, 3.0, &r, &e, &m).unwrap();
+        assert!((d.volts - 3.5).abs() < 1e-4, "{}", d.volts);
+        // Smaller still: no voltage above the break-away (1 V, read late: half of it) stays
+        // under the speed limit.
+        let (r, e, m) = probe(10.0, 0.01, 1e-3, 1.0);
+        assert_eq!(
+            design(&limits, DT, 2000, 3.0, &r, &e, &m),
+            Err(Refusal::TooFast)
+        );
+    }
+}

@@ -1,0 +1,122 @@
+//! Recording the designed experiment ([`crate::device::design`]): the bridge's inputs of the
+//! slow and the fast record, and the averaging of the drive's samples into record samples.
+//!
+//! The model reads record sample k at the instant k·dt and holds the voltage of sample k over
+//! [k·dt, (k+1)·dt) (zero-order hold). The drive samples faster: a record sample is the mean
+//! of the `m` (odd) drive samples centred on its instant, which is the reading at that
+//! instant up to the signal's curvature over the window (exact for a straight line), with
+//! its noise divided by √m; the first sample is the single reading at the record's start
+//! (nothing of the record has acted yet).
+
+use crate::device::bench::Bench;
+use crate::device::design::RecordPlan;
+use crate::device::hardware::{Bridge, Drive, Link, Watchdog};
+use crate::device::job::JobEnd;
+use crate::device::record_store::RecordStore;
+
+/// First sample of the coast-down in a slow record of `n` samples: the last quarter coasts.
+pub const fn coast_start(n: usize) -> usize {
+    n - n / 4
+}
+
+/// Input of sample `k` of the slow record of `n` samples: ½ → 1 → ¼ of `volts` over three
+/// equal parts of the first three quarters (seed
+/// Section 6 speed changes: each level a steady speed, so that the torque balance of seed
+/// Eq. 4 is seen at three speeds), then the bridge open over the last quarter (the
+/// coast-down: friction alone slows the shaft).
+pub fn slow_input(k: usize, n: usize, volts: f32) -> Bridge {
+    let coast = coast_start(n);
+    if k >= coast {
+        return Bridge::Open;
+    }
+    let share = match 3 * k / coast.max(1) {
+        0 => 0.5,
+        1 => 1.0,
+        _ => 0.25,
+    };
+    Bridge::Drive(share * volts)
+}
+
+/// Input of sample `k` of the fast record of `n` samples: 0 V over the first twentieth, the
+/// voltage until half way, then 0 V (the current reverses against the back-EMF).
+pub fn fast_input(k: usize, n: usize, volts: f32) -> Bridge {
+    if k >= (n / 20).max(1) && k < n / 2 {
+        Bridge::Drive(volts)
+    } else {
+        Bridge::Drive(0.0)
+    }
+}
+
+/// Record one record into `store` after those it holds: `plan.samples` samples of
+/// `plan.average` drive samples each, the bridge as `input(k)` over record sample k, its
+/// coast-down from `coast_from`. `Ok(false)` when a reading passed the bench's guard (the
+/// current's, or `speed_share` of the speed limit): the bridge is then open and the record
+/// incomplete.
+pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
+    bench: &mut Bench<D, L, W>,
+    store: &mut RecordStore<N>,
+    plan: RecordPlan,
+    speed_share: f32,
+    coast_from: Option<usize>,
+    input: impl Fn(usize) -> Bridge,
+) -> Result<bool, JobEnd> {
+    let index = store.open(plan.dt(bench.dt()));
+    store.segments[index].coast_from = coast_from;
+    let n = plan.samples.min(store.free());
+    if n == 0 {
+        return Ok(true);
+    }
+    let m = plan.average as usize;
+    let half = (m - 1) / 2;
+    let (mut sum_w, mut sum_i) = (0.0f32, 0.0f32);
+    for b in 0..=(n - 1) * m + half {
+        let bridge = input((b / m).min(n - 1));
+        let s = bench.apply(bridge)?;
+        if bench.guarded(s, speed_share) {
+            bench.apply(Bridge::Open)?;
+            return Ok(false);
+        }
+        if b == 0 {
+            store.push(index, input(0).recorded_volts(), s.omega, s.current);
+            continue;
+        }
+        let k = (b + half) / m;
+        if k == 0 {
+            continue;
+        }
+        (sum_w, sum_i) = (sum_w + s.omega, sum_i + s.current);
+        if b == k * m + half {
+            let mean = |sum: f32| sum / m as f32;
+            store.push(index, input(k).recorded_volts(), mean(sum_w), mean(sum_i));
+            (sum_w, sum_i) = (0.0, 0.0);
+        }
+    }
+    Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_slow_record_steps_half_full_quarter_then_coasts() {
+        let (n, volts) = (2000, 48.0);
+        let inputs: std::vec::Vec<Bridge> = (0..n).map(|k| slow_input(k, n, volts)).collect();
+        assert_eq!(coast_start(n), 1500);
+        assert_eq!(inputs[0], Bridge::Drive(24.0));
+        assert_eq!(inputs[499], Bridge::Drive(24.0));
+        assert_eq!(inputs[500], Bridge::Drive(48.0));
+        assert_eq!(inputs[1000], Bridge::Drive(12.0));
+        assert_eq!(inputs[1499], Bridge::Drive(12.0));
+        assert!(inputs[1500..].iter().all(|b| *b == Bridge::Open));
+    }
+
+    #[test]
+    fn the_fast_record_steps_up_then_back_to_zero() {
+        let inputs: std::vec::Vec<Bridge> = (0..400).map(|k| fast_input(k, 400, 9.0)).collect();
+        assert_eq!(inputs[19], Bridge::Drive(0.0));
+        assert_eq!(inputs[20], Bridge::Drive(9.0));
+        assert_eq!(inputs[199], Bridge::Drive(9.0));
+        assert_eq!(inputs[200], Bridge::Drive(0.0));
+    }
+}

@@ -1,0 +1,84 @@
+//! The drive's limits that commissioning works within: the largest voltage it applies, the
+//! current and speed at which it trips, and the time the whole experiment may take.
+
+/// Limits of self-commissioning.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Limits {
+    /// Largest armature voltage applied [V].
+    pub voltage: f32,
+    /// Trip above this |current| [A].
+    pub current: f32,
+    /// Trip above this |speed| [rad/s].
+    pub speed: f32,
+    /// Longest the experiment (probe and records) may take [s].
+    pub budget: f32,
+}
+
+impl Limits {
+    /// Conservative defaults for a drive board of the seed paper's class (a 50 V motor): 50 V,
+    /// 40 A, 500 rad/s, 60 s.
+    pub const DEFAULT: Limits = Limits {
+        voltage: 50.0,
+        current: 40.0,
+        speed: 500.0,
+        budget: 60.0,
+    };
+
+    /// Shortest time budget [s]: the probe alone needs a few seconds.
+    pub const MIN_BUDGET: f32 = 5.0;
+
+    /// Whether every limit is a finite positive number and the budget at least
+    /// [`Limits::MIN_BUDGET`] (and at most a day).
+    pub fn usable(&self) -> bool {
+        let positive = |x: f32| x.is_finite() && x > 0.0;
+        positive(self.voltage)
+            && positive(self.current)
+            && positive(self.speed)
+            && self.budget >= Self::MIN_BUDGET
+            && self.budget <= 86_400.0
+    }
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits::DEFAULT
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_usable_and_nonsense_is_not() {
+        assert!(Limits::DEFAULT.usable());
+        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert!(!Limits {
+                voltage: bad,
+                ..Limits::DEFAULT
+            }
+            .usable());
+            assert!(!Limits {
+                current: bad,
+                ..Limits::DEFAULT
+            }
+            .usable());
+            assert!(!Limits {
+                speed: bad,
+                ..Limits::DEFAULT
+            }
+            .usable());
+            assert!(!Limits {
+                budget: bad,
+                ..Limits::DEFAULT
+            }
+            .usable());
+        }
+        assert!(!Limits {
+            budget: 1.0,
+            ..Limits::DEFAULT
+        }
+        .usable());
+    }
+}

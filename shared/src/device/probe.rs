@@ -1,0 +1,370 @@
+//! Commissioning's probe: what the board measures of an unknown motor before it designs the
+//! experiment, each stage bounded in time and watched against the limits at every sample
+//! (the [`Bench`]), in the order drive calibrations use (measure before exciting):
+//!
+//! 1. [`rest_and_offset`]: at 0 V, wait for the shaft to stand still, then read the current
+//!    sensor's offset (subtracted from then on) and the sensors' noise;
+//! 2. [`ramp`]: the voltage raised from 0 until the current reaches a calibration current,
+//!    or the shaft breaks away (the break-away voltage), or the voltage limit;
+//! 3. [`electrical_step`]: a voltage step at standstill, sampled at the drive's rate:
+//!    Ra = V / i (the current's plateau, seed Eq. 1 with ω = 0 and di/dt = 0) and La/Ra
+//!    (the time to 63 % of it);
+//! 4. [`mechanical_step`]: a step at the largest voltage the current limit allows, watched
+//!    until the speed settles, nears the speed limit (the bridge's input then changes), or
+//!    the stage's share of the budget ends: Kv from seed Eq. 1 in the steady state,
+//!    Kv = (V - Ra i) / ω, and the mechanical time scale.
+//!
+//! The estimates are rough (tens of per cent); they size the experiment
+//! ([`crate::device::design`]). A motor that cannot be commissioned within the limits is
+//! refused here with its reason, before anything trips.
+
+use crate::device::bench::Bench;
+use crate::device::hardware::{Bridge, Drive, Link, Watchdog};
+use crate::device::job::JobEnd;
+use crate::device::trace::Trace;
+use crate::wire::protocol::Refusal;
+
+/// Samples of one look at the shaft at rest.
+const REST_WINDOW: u32 = 64;
+/// Longest wait for the shaft to stand still before anything is applied [s].
+const REST_SECONDS: f32 = 20.0;
+/// Largest current sensor offset taken for an offset rather than a fault (share of the
+/// current limit).
+const MAX_OFFSET: f32 = 0.1;
+/// The ramp's calibration current (share of the current limit).
+pub const CALIBRATION_CURRENT: f32 = 0.25;
+/// Time the ramp takes from 0 to the voltage limit [s].
+const RAMP_SECONDS: f32 = 2.0;
+/// Share of the speed limit at which the mechanical step stops driving.
+pub const SPEED_SHARE: f32 = 0.7;
+/// Share of the current limit that the mechanical step's start current may reach.
+const STEP_CURRENT: f32 = 0.6;
+/// Points of a probe's traces.
+const TRACE: usize = 128;
+
+/// The shaft at rest: the current sensor's offset and the sensors' noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rest {
+    /// Current read at 0 V with the shaft at rest [A].
+    pub current_offset: f32,
+    /// Standard deviation of the speed reading at rest [rad/s].
+    pub sigma_omega: f32,
+    /// Standard deviation of the current reading at rest [A].
+    pub sigma_current: f32,
+}
+
+impl Rest {
+    /// Speed above which the shaft turns: six deviations of its noise, at least 0.2 % of
+    /// the speed limit (a few counts of a 12-bit tacho).
+    pub fn motion(&self, speed_limit: f32) -> f32 {
+        (6.0 * self.sigma_omega).max(0.002 * speed_limit)
+    }
+
+    /// Current below which none flows: four deviations of its noise, at least 1 % of the
+    /// current limit.
+    fn no_current(&self, current_limit: f32) -> f32 {
+        (4.0 * self.sigma_current).max(0.01 * current_limit)
+    }
+}
+
+/// Stage 1: at 0 V, wait (up to [`REST_SECONDS`], or a third of the budget) until the speed
+/// reads under the motion threshold ([`Rest::motion`]) and no longer changes from one look to
+/// the next; then the current read with the bridge open (no current can flow) is the
+/// sensor's offset (refused as a fault above [`MAX_OFFSET`] of the limit) and the spread of
+/// the readings at rest is their noise.
+pub fn rest_and_offset<D: Drive, L: Link, W: Watchdog>(
+    bench: &mut Bench<D, L, W>,
+) -> Result<Rest, JobEnd> {
+    let limits = bench.limits;
+    let looks = (REST_SECONDS.min(limits.budget / 3.0) / (REST_WINDOW as f32 * bench.dt())) as u32;
+    let mut previous = f32::NAN;
+    for _ in 0..looks.max(2) {
+        let (mut sw, mut sww, mut si, mut sii) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+        for _ in 0..REST_WINDOW {
+            let s = bench.apply(Bridge::Drive(0.0))?;
+            (sw, sww) = (sw + s.omega, sww + s.omega * s.omega);
+            (si, sii) = (si + s.current, sii + s.current * s.current);
+        }
+        let n = REST_WINDOW as f32;
+        let (w, i) = (sw / n, si / n);
+        let var_w = (sww / n - w * w).max(0.0);
+        let var_i = (sii / n - i * i).max(0.0);
+        let still = (w - previous).abs() <= 4.0 * libm::sqrtf(var_w / n) + 1e-4 * limits.speed;
+        previous = w;
+        // Standing: no faster than the motion threshold (a shaft still braking at 0 V draws
+        // -Kv ω / Ra, which would be taken for the sensor's offset).
+        let standing = Rest {
+            current_offset: 0.0,
+            sigma_omega: libm::sqrtf(var_w),
+            sigma_current: 0.0,
+        };
+        if w.abs() <= standing.motion(limits.speed) && still {
+            // The offset with the bridge open: no current can flow, whatever the shaft does.
+            let mut offset = 0.0f32;
+            for _ in 0..REST_WINDOW {
+                offset += bench.apply(Bridge::Open)?.current;
+            }
+            let offset = offset / n;
+            if offset.abs() > MAX_OFFSET * limits.current {
+                return Err(JobEnd::Refused(Refusal::SensorFault));
+            }
+            return Ok(Rest {
+                current_offset: offset,
+                sigma_omega: libm::sqrtf(var_w),
+                sigma_current: libm::sqrtf((var_i + i * i - offset * offset).max(var_i)),
+            });
+        }
+    }
+    Err(JobEnd::Refused(Refusal::NotAtRest))
+}
+
+/// Drive 0 V until no current flows and the shaft stands (16 samples in a row), for at most
+/// `seconds`; then go on whatever the shaft does (a record may start in motion).
+pub fn quiet<D: Drive, L: Link, W: Watchdog>(
+    bench: &mut Bench<D, L, W>,
+    rest: &Rest,
+    seconds: f32,
+) -> Result<(), JobEnd> {
+    let (still_w, no_i) = (
+        rest.motion(bench.limits.speed),
+        rest.no_current(bench.limits.current),
+    );
+    let most = (seconds.max(0.0) / bench.dt()) as u32;
+    let mut calm = 0;
+    for _ in 0..most {
+        let s = bench.apply(Bridge::Drive(0.0))?;
+        calm = if s.omega.abs() <= still_w && s.current.abs() <= no_i {
+            calm + 1
+        } else {
+            0
+        };
+        if calm >= 16 {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// The ramp of stage 2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ramp {
+    /// Voltage at which the shaft broke away, if it did [V].
+    pub breakaway: Option<f32>,
+    /// Voltage at the ramp's end [V].
+    pub volts: f32,
+    /// Current at the ramp's end [A].
+    pub current: f32,
+}
+
+/// Stage 2: the voltage raised from 0 to the limit over [`RAMP_SECONDS`] (a twentieth of the
+/// budget at most), until the shaft turns, the current reaches [`CALIBRATION_CURRENT`] of its
+/// limit, or the voltage its limit; then 0 V until the current is gone.
+pub fn ramp<D: Drive, L: Link, W: Watchdog>(
+    bench: &mut Bench<D, L, W>,
+    rest: &Rest,
+) -> Result<Ramp, JobEnd> {
+    let limits = bench.limits;
+    let rate = limits.voltage / RAMP_SECONDS.min(limits.budget / 20.0);
+    let moving = rest.motion(limits.speed);
+    let (mut speed, mut k) = (0.0f32, 0u32);
+    let end = loop {
+        let v = (rate * k as f32 * bench.dt()).min(limits.voltage);
+        let s = bench.apply(Bridge::Drive(v))?;
+        k += 1;
+        // A short mean, so that one noisy reading is not motion.
+        speed = 0.75 * speed + 0.25 * s.omega;
+        if speed.abs() > moving {
+            break Ramp {
+                breakaway: Some(v),
+                volts: v,
+                current: s.current,
+            };
+        }
+        if s.current >= CALIBRATION_CURRENT * limits.current || v >= limits.voltage {
+            break Ramp {
+                breakaway: None,
+                volts: v,
+                current: s.current,
+            };
+        }
+    };
+    quiet(bench, rest, 0.05 * limits.budget)?;
+    Ok(end)
+}
+
+/// The electrical step of stage 3.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Electrical {
+    /// Armature resistance [ohm].
+    pub ra: f32,
+    /// Electrical time constant La/Ra [s].
+    pub tau_e: f32,
+    /// Voltage of the step [V].
+    pub volts: f32,
+}
+
+/// Stage 3: a voltage step from standstill, sampled until the current stops rising (no
+/// rise over the last half of the step) or a tenth of the budget; the plateau gives Ra and the time to
+/// 63 % of it La/Ra. The step's voltage gives about a tenth of the current limit by the
+/// ramp's end (at least the ramp's end voltage); a current beyond [`crate::device::bench::GUARD`]
+/// of its limit opens the bridge and the step is tried again at a third of the voltage.
+pub fn electrical_step<D: Drive, L: Link, W: Watchdog>(
+    bench: &mut Bench<D, L, W>,
+    rest: &Rest,
+    ramp: &Ramp,
+) -> Result<Electrical, JobEnd> {
+    let limits = bench.limits;
+    let floor = rest.no_current(limits.current);
+    let rough_ra = ramp.volts / ramp.current.max(floor);
+    let mut v = (0.1 * limits.current * rough_ra)
+        .max(ramp.volts)
+        .min(limits.voltage);
+    let most = (0.1 * limits.budget / bench.dt()) as u32;
+    for _ in 0..3 {
+        let mut trace = Trace::<TRACE>::new();
+        let (mut rising_from, mut last_rise, mut k) = (0.0f32, 0u32, 0u32);
+        let mut guarded = false;
+        while k < most {
+            let s = bench.apply(Bridge::Drive(v))?;
+            k += 1;
+            trace.push(s.current);
+            if bench.guarded(s, 1.0) {
+                bench.apply(Bridge::Open)?;
+                guarded = true;
+                break;
+            }
+            if s.current > rising_from + (3.0 * rest.sigma_current).max(0.005 * rising_from) {
+                (rising_from, last_rise) = (s.current, k);
+            }
+            // No rise over the last half of the step: the plateau (a slow rise that the
+            // ADC's counts show only now and then keeps it going).
+            if k >= 32 && k - last_rise > k / 2 + 16 {
+                break;
+            }
+        }
+        quiet(bench, rest, 0.05 * limits.budget)?;
+        if guarded {
+            v /= 3.0;
+            continue;
+        }
+        let plateau = trace.max().max(floor);
+        let k63 = trace
+            .first_reaching((1.0 - 1.0 / core::f32::consts::E) * plateau)
+            .unwrap_or(0.0);
+        return Ok(Electrical {
+            ra: v / plateau,
+            tau_e: (k63 * bench.dt()).max(0.5 * bench.dt()),
+            volts: v,
+        });
+    }
+    Err(JobEnd::Refused(Refusal::Trip))
+}
+
+/// The mechanical step of stage 4.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mechanical {
+    /// Back-EMF constant [V s/rad].
+    pub kv: f32,
+    /// Mechanical time scale [s]: J Ra / Kv² with J from the mean acceleration under the
+    /// mean current, or the time to 63 % of the settled speed if longer.
+    pub tau_m: f32,
+    /// Largest speed over the settled (or last) speed (above 1 for an overshoot).
+    pub overshoot: f32,
+    /// Voltage of the step [V].
+    pub volts: f32,
+    /// Current at the step's end [A] (with the speed settled: the friction's, Kv i = B ω + tc).
+    pub current: f32,
+    /// The speed neared its limit before it settled.
+    pub capped: bool,
+    /// The speed settled.
+    pub settled: bool,
+}
+
+/// Stage 4: a voltage step at the largest voltage the current limit allows
+/// ([`STEP_CURRENT`] of it at standstill, by the stage-3 Ra), watched until the speed
+/// settles (it rose under 3 % over the last third of the step), reaches [`SPEED_SHARE`] of
+/// its limit, or `seconds` pass. A shaft that never turns is refused
+/// ([`Refusal::NoMotion`]). The bridge stays driven at the step's voltage at its end: the
+/// experiment's slow record takes over from that state.
+pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
+    bench: &mut Bench<D, L, W>,
+    rest: &Rest,
+    electrical: &Electrical,
+    floor: f32,
+    seconds: f32,
+) -> Result<Mechanical, JobEnd> {
+    let limits = bench.limits;
+    let ra = electrical.ra;
+    let mut v = (STEP_CURRENT * limits.current * ra).min(limits.voltage);
+    let moving = rest.motion(limits.speed);
+    let most = ((seconds / bench.dt()) as u32).max(64);
+    for _ in 0..3 {
+        let mut speed = Trace::<TRACE>::new();
+        let mut current = Trace::<TRACE>::new();
+        let (mut k, mut guarded, mut capped, mut settled) = (0u32, false, false, false);
+        let (mut top, mut start) = (0.0f32, None);
+        while k < most {
+            let s = bench.apply(Bridge::Drive(v))?;
+            k += 1;
+            let w0 = *start.get_or_insert(s.omega);
+            speed.push(s.omega);
+            current.push(s.current);
+            top = top.max(s.omega);
+            if bench.guarded(s, 1.0) {
+                bench.apply(Bridge::Open)?;
+                guarded = true;
+                break;
+            }
+            if s.omega >= SPEED_SHARE * limits.speed {
+                capped = true;
+                break;
+            }
+            if k >= 64 && k % 32 == 0 {
+                // The shaft may still turn from the stages before: the rise counts from
+                // where it started.
+                let (now, then) = (speed.last(), speed.at_sample(2 * k / 3));
+                if now - w0 > moving && now - then <= 0.03 * (now - w0) {
+                    settled = true;
+                    break;
+                }
+            }
+        }
+        if guarded {
+            quiet(bench, rest, 0.05 * limits.budget)?;
+            v = floor + 0.5 * (v - floor);
+            continue;
+        }
+        if top <= moving {
+            return Err(JobEnd::Refused(Refusal::NoMotion));
+        }
+        let (w_end, i_end) = (speed.last(), current.last());
+        let kv = ((v - ra * i_end) / w_end).max(1e-6);
+        let t = k as f32 * bench.dt();
+        let w0 = start.unwrap_or(0.0);
+        let tau_m = match settled {
+            true => speed.first_reaching(w0 + (1.0 - 1.0 / core::f32::consts::E) * (w_end - w0)),
+            false => None,
+        };
+        // J from the mean acceleration under the mean torque (friction left out: J and the
+        // time scale come out long, which errs towards a longer record); the longer of that
+        // and the time to 63 %.
+        let accelerating = match settled {
+            // Settled: the end current is the friction's; the rest accelerated the shaft.
+            true => current.mean() - i_end,
+            false => current.mean(),
+        };
+        let j = kv * accelerating.max(0.0) / ((w_end - w0).max(moving) / t);
+        let by_inertia = j * ra / (kv * kv);
+        let tau_m = tau_m.map_or(by_inertia, |k63| by_inertia.max(k63 * bench.dt()));
+        return Ok(Mechanical {
+            kv,
+            tau_m: tau_m.max(bench.dt()),
+            overshoot: (top / w_end).max(1.0),
+            volts: v,
+            current: i_end,
+            capped,
+            settled,
+        });
+    }
+    Err(JobEnd::Refused(Refusal::Trip))
+}
