@@ -3,9 +3,9 @@
 //! logic is `motor_id_shared::device::service`; this module adds the record buffer, the limits, the
 //! status LED and the log lines.
 
-use motor_id_shared::device::commissioning::Limits;
 use motor_id_shared::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
 use motor_id_shared::device::job::JobEnd;
+use motor_id_shared::device::limits::Limits;
 use motor_id_shared::device::record_store::RecordStore;
 use motor_id_shared::device::service::{Boot, Service};
 use motor_id_shared::wire::protocol::{MotorReport, NotStored};
@@ -14,12 +14,9 @@ use motor_id_shared::wire::stored::STORE_VERSION;
 /// Longest record the board holds (2,000 samples of voltage, speed and current: 24 KB).
 pub const MAX_SAMPLES: usize = 2000;
 
-/// Limits of the commissioning experiment (the seed paper's 50 V motor; set them for yours).
-pub const LIMITS: Limits = Limits {
-    voltage: 50.0,
-    current: 40.0,
-    speed: 500.0,
-};
+/// Limits of the commissioning experiment: the conservative defaults (50 V, 40 A,
+/// 500 rad/s, 60 s; the probe sizes the experiment within them for any motor).
+pub const LIMITS: Limits = Limits::DEFAULT;
 
 /// What the status LED shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]

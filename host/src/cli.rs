@@ -1,7 +1,7 @@
 //! The command-line tree (docs/CONTRACTS.md) and its dispatch to the commands.
 
 use crate::commands::{
-    board, compare, demo, diagnose, identify, import_scope, simulate, tune, validate,
+    board, commission, compare, demo, diagnose, identify, import_scope, simulate, tune, validate,
 };
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -35,6 +35,9 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Talk to a drive board (or its QEMU build) over a serial port.
     Board(board::BoardArgs),
+    /// Commission a simulated motor on the virtual board: the board's own probe, experiment
+    /// and fit, run on the host (try a motor and the limits before flashing a board).
+    Commission(commission::CommissionArgs),
     /// Run the whole job on a built-in default: the seed's motor, simulated, identified from
     /// speed only (seed workflow) and from speed and current.
     Demo(demo::DemoArgs),
@@ -49,6 +52,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Demo(a) => demo::run(&a),
         Command::Diagnose(a) => diagnose::run(&a),
         Command::Board(a) => board::run(&a),
+        Command::Commission(a) => commission::run(&a),
         Command::Validate(a) => validate::run(&a),
         Command::Tune(a) => tune::run(&a),
         Command::Compare(a) => compare::run_compare(&a),

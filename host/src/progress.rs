@@ -2,11 +2,12 @@
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use motor_id_shared::fit::identify::{Progress, Stage};
+use motor_id_shared::wire::protocol::{BoardMessage, JobStage};
 
 /// What the bar shows at one moment: its label, how far along its stage is, and a message.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BarState {
-    /// The stage's label (`FFO`, `refine`, `check`, `experiment`).
+    /// The stage's label (`FFO`, `refine`, `check`, `probe`, `experiment`).
     pub prefix: &'static str,
     /// Steps done in the stage.
     pub position: u64,
@@ -30,6 +31,48 @@ impl BarState {
             length: u64::from(p.iterations.max(p.iteration).max(1)),
             message: format!("{} evaluations, best {:.5}", p.evaluations, p.best),
         }
+    }
+}
+
+impl BarState {
+    /// The bar a board's progress frame shows (`None` for other messages): the stage's
+    /// position against the total the frame carries, so that the bar's length is the job's
+    /// known length and does not grow frame by frame. The commissioning's probe and
+    /// experiment count milliseconds of its time budget.
+    pub fn of_board(frame: &BoardMessage) -> Option<BarState> {
+        let &BoardMessage::Progress {
+            stage,
+            iteration,
+            total,
+            evaluations,
+            best,
+        } = frame
+        else {
+            return None;
+        };
+        let stage = match stage {
+            JobStage::Probe | JobStage::Experiment => {
+                return Some(BarState {
+                    prefix: match stage {
+                        JobStage::Probe => "probe",
+                        _ => "experiment",
+                    },
+                    position: u64::from(iteration),
+                    length: u64::from(total.max(iteration).max(1)),
+                    message: String::from("ms of the time budget"),
+                })
+            }
+            JobStage::Search => Stage::Search,
+            JobStage::Refine => Stage::Refine,
+            JobStage::Check => Stage::Check,
+        };
+        Some(BarState::of(&Progress {
+            stage,
+            iteration,
+            iterations: total,
+            evaluations,
+            best,
+        }))
     }
 }
 
@@ -68,6 +111,11 @@ impl FitProgress {
         self.bar.set_length(s.length);
         self.bar.set_position(s.position);
         self.bar.set_message(s.message.clone());
+    }
+
+    /// Print a line on stderr without tearing the bar.
+    pub fn println(&self, line: &str) {
+        self.bar.suspend(|| eprintln!("{line}"));
     }
 
     /// Remove the bar.

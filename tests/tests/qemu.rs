@@ -163,7 +163,11 @@ impl Raw<'_> {
             loop {
                 match self.receive(Duration::from_secs(5)) {
                     // The end of power-up commissioning may still be on its way.
-                    Some(BoardMessage::Progress { .. } | BoardMessage::Identified(_)) => {}
+                    Some(
+                        BoardMessage::Progress { .. }
+                        | BoardMessage::Planned(_)
+                        | BoardMessage::Identified(_),
+                    ) => {}
                     Some(BoardMessage::Refused(Refusal::Busy)) => {
                         std::thread::sleep(Duration::from_millis(200));
                         break;

@@ -16,9 +16,9 @@ use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Rcc;
 use stm32f4xx_hal::timer::{CounterHz, PwmChannel, PwmHzManager};
 
-/// Sample rate of tacho and current [Hz]: 2,000 samples span 2 s. Set it so that the record
-/// spans about fifteen mechanical time constants of the motor.
-pub const SAMPLE_HZ: u32 = 1_000;
+/// Sample rate of tacho and current [Hz]: one ADC pair per PWM period. Commissioning's probe
+/// reads the motor at this rate and averages it into its records' steps.
+pub const SAMPLE_HZ: u32 = 20_000;
 /// PWM frequency of the bridge [Hz].
 const PWM_HZ: u32 = 20_000;
 /// DC bus voltage [V]: the duty cycle is |v| / BUS_VOLTS.

@@ -17,9 +17,9 @@ use motor_id_shared::device::plant::{demo_motor, SimulatedPlant};
 use motor_id_shared::wire::stored::STORED_LEN;
 use panic_semihosting as _;
 
-/// Sample period of the simulated drive: 100 Hz, so that the 2,000 samples of a record span
-/// the seed motor's 20 s (seed Fig. 9).
-const DT: f32 = 0.01;
+/// Sample period of the simulated drive: 2 kHz, 34 samples per La/Ra of the seed motor
+/// (commissioning averages them into its records' steps).
+const DT: f32 = 5e-4;
 /// Sensor noise of the simulated tacho [rad/s] and current sensor [A].
 const NOISE: (f32, f32) = (0.5, 0.02);
 /// Seed of the sensor noise.

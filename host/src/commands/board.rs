@@ -5,16 +5,13 @@ use crate::csvio::OwnedRecord;
 use crate::fit::PipelineArg;
 use crate::output::write_json;
 use crate::progress::{BarState, FitProgress};
-use crate::report::{ByParam, Num, ParamEstimate};
+use crate::report::board::{plan_text, BoardReport};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
-use motor_id_shared::fit::identify::{Progress, Stage};
-use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
-    BoardMessage, HostMessage, JobStage, MotorReport, NotStored, Refusal, CHUNK, PROTOCOL_VERSION,
+    BoardMessage, HostMessage, MotorReport, NotStored, Refusal, CHUNK, PROTOCOL_VERSION,
 };
-use serde::Serialize;
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::path::PathBuf;
@@ -272,11 +269,16 @@ fn follow_job(c: &mut Connection, quiet: bool, allowance: Duration) -> Result<Mo
                     last = Some((stage, iteration, evaluations));
                     deadline = Instant::now() + wait;
                 }
-                if let Some(state) = bar_state(&frame) {
+                if let Some(state) = BarState::of_board(&frame) {
                     bar.show(&state);
                 }
             }
             Ok(BoardMessage::Identified(report)) => break Ok(report),
+            Ok(BoardMessage::Planned(plan)) => {
+                if !quiet {
+                    bar.println(&plan_text(&plan));
+                }
+            }
             Ok(BoardMessage::Aborted) => break Err(anyhow!("the board aborted the job")),
             Ok(BoardMessage::Refused(r)) => break Err(anyhow!("the board refused: {r}")),
             Ok(_) => {}
@@ -286,42 +288,6 @@ fn follow_job(c: &mut Connection, quiet: bool, allowance: Duration) -> Result<Mo
     };
     bar.finish();
     out
-}
-
-/// The progress bar a board's progress frame shows (`None` for other messages): the stage's
-/// position against the total the frame carries, so that the bar's length is the job's
-/// known length and does not grow frame by frame.
-fn bar_state(frame: &BoardMessage) -> Option<BarState> {
-    let &BoardMessage::Progress {
-        stage,
-        iteration,
-        total,
-        evaluations,
-        best,
-    } = frame
-    else {
-        return None;
-    };
-    let stage = match stage {
-        JobStage::Experiment => {
-            return Some(BarState {
-                prefix: "experiment",
-                position: u64::from(iteration),
-                length: u64::from(total.max(iteration).max(1)),
-                message: String::from("samples"),
-            })
-        }
-        JobStage::Search => Stage::Search,
-        JobStage::Refine => Stage::Refine,
-        JobStage::Check => Stage::Check,
-    };
-    Some(BarState::of(&Progress {
-        stage,
-        iteration,
-        iterations: total,
-        evaluations,
-        best,
-    }))
 }
 
 /// Ctrl-C was pressed while the host waited for the board.
@@ -362,80 +328,6 @@ fn abort(c: &mut Connection) -> anyhow::Error {
                 )
             }
         }
-    }
-}
-
-/// What `board` reports of a motor: the `identify` report's fields that a board sends.
-#[derive(Serialize, Debug)]
-struct BoardReport {
-    /// Version of this report's schema ([`crate::report::SCHEMA_VERSION`]).
-    schema_version: u32,
-    /// Motor parameters, and Coulomb friction when the board identified it.
-    params: ByParam<Num>,
-    /// Speed RMSE [rad/s].
-    rmse_omega: Num,
-    /// Model evaluations.
-    evaluations: u32,
-    /// What the data pins.
-    identifiability: BoardIdentifiability,
-}
-
-/// The board's identifiability: rank and each parameter's estimate.
-#[derive(Serialize, Debug)]
-struct BoardIdentifiability {
-    /// Directions the data pins.
-    rank: u8,
-    /// Parameters identified.
-    free: usize,
-    /// Every parameter's estimate.
-    parameters: ByParam<ParamEstimate>,
-}
-
-impl BoardReport {
-    /// The report of the board's message; an estimate of a parameter this host does not
-    /// know (a newer firmware's) is an error.
-    fn new(r: &MotorReport) -> Result<BoardReport> {
-        let parameters = r
-            .estimates
-            .iter()
-            .map(|e| {
-                let id = ParamId::ALL
-                    .get(usize::from(e.param))
-                    .copied()
-                    .ok_or_else(|| {
-                        anyhow!("the board reports an unknown parameter (code {})", e.param)
-                    })?;
-                Ok((id, ParamEstimate::with_std(e.value, e.std)))
-            })
-            .collect::<Result<ByParam<ParamEstimate>>>()?;
-        Ok(BoardReport {
-            schema_version: crate::report::SCHEMA_VERSION,
-            params: parameters.iter().map(|(id, e)| (*id, e.value)).collect(),
-            rmse_omega: Num(r.rmse_omega),
-            evaluations: r.evaluations,
-            identifiability: BoardIdentifiability {
-                rank: r.rank,
-                free: parameters.0.len(),
-                parameters,
-            },
-        })
-    }
-
-    /// The text printed on stdout.
-    fn text(&self) -> String {
-        let mut s = String::new();
-        for (id, e) in self.identifiability.parameters.iter() {
-            let std = match e.std {
-                Some(Num(std)) if e.pinned => format!("+- {std:.3e}"),
-                _ => "NOT pinned".into(),
-            };
-            s += &format!("  {:<3} = {:<14} {std}\n", id.name(), e.value.0);
-        }
-        s += &format!(
-            "rmse_omega = {} rad/s, {} evaluations, rank {}\n",
-            self.rmse_omega.0, self.evaluations, self.identifiability.rank
-        );
-        s
     }
 }
 

@@ -1,7 +1,9 @@
 //! Tests of the board report read from a board's message.
 
 use super::*;
-use motor_id_shared::wire::protocol::Estimate;
+use crate::progress::BarState;
+use motor_id_shared::param_id::ParamId;
+use motor_id_shared::wire::protocol::{Estimate, JobStage};
 
 /// A report of the five motor parameters and, with `friction`, `tc` as its sixth.
 fn motor(friction: Option<(f32, f32)>) -> MotorReport {
@@ -74,12 +76,13 @@ fn the_progress_bar_is_as_long_as_the_stage_the_board_announces() {
     // Frame after frame of one stage: the position advances, the length stays the total.
     for stage in [
         JobStage::Experiment,
+        JobStage::Probe,
         JobStage::Search,
         JobStage::Refine,
         JobStage::Check,
     ] {
         let states: Vec<BarState> = (1..=5)
-            .map(|k| bar_state(&frame(stage, k)).unwrap())
+            .map(|k| BarState::of_board(&frame(stage, k)).unwrap())
             .collect();
         assert!(
             states.iter().all(|s| s.length == 40),
@@ -89,22 +92,41 @@ fn the_progress_bar_is_as_long_as_the_stage_the_board_announces() {
         assert_eq!(positions, [1, 2, 3, 4, 5], "{stage:?}");
     }
     assert_eq!(
-        bar_state(&frame(JobStage::Experiment, 0)).unwrap().prefix,
+        BarState::of_board(&frame(JobStage::Experiment, 0))
+            .unwrap()
+            .prefix,
         "experiment"
     );
     assert_eq!(
-        bar_state(&frame(JobStage::Search, 0)).unwrap().prefix,
+        BarState::of_board(&frame(JobStage::Probe, 0))
+            .unwrap()
+            .prefix,
+        "probe"
+    );
+    assert_eq!(
+        BarState::of_board(&frame(JobStage::Search, 0))
+            .unwrap()
+            .prefix,
         "FFO"
     );
     assert_eq!(
-        bar_state(&frame(JobStage::Refine, 0)).unwrap().prefix,
+        BarState::of_board(&frame(JobStage::Refine, 0))
+            .unwrap()
+            .prefix,
         "refine"
     );
     assert_eq!(
-        bar_state(&frame(JobStage::Check, 0)).unwrap().prefix,
+        BarState::of_board(&frame(JobStage::Check, 0))
+            .unwrap()
+            .prefix,
         "check"
     );
     // A board that runs past its announced total stretches the bar instead of overfilling it.
-    assert_eq!(bar_state(&frame(JobStage::Refine, 50)).unwrap().length, 50);
-    assert_eq!(bar_state(&BoardMessage::Cleared), None);
+    assert_eq!(
+        BarState::of_board(&frame(JobStage::Refine, 50))
+            .unwrap()
+            .length,
+        50
+    );
+    assert_eq!(BarState::of_board(&BoardMessage::Cleared), None);
 }

@@ -2,6 +2,7 @@
 //! use the helpers beside this module (fitting, reports, plots, files), never each other.
 
 pub mod board;
+pub mod commission;
 pub mod compare;
 pub mod demo;
 pub mod diagnose;

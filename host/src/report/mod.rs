@@ -3,6 +3,7 @@
 //! ([`ByParam`]); the `identify` report itself ([`identify`]) and its text summary
 //! ([`summary`]).
 
+pub mod board;
 pub mod identify;
 pub mod summary;
 

@@ -95,7 +95,7 @@ impl<'a, D: Drive, L: Link, W: Watchdog> Bench<'a, D, L, W> {
         if s.current.abs() > self.limits.current || s.omega.abs() > self.limits.speed {
             return Err(self.halt(JobEnd::Refused(Refusal::Trip)));
         }
-        if self.samples % self.progress_every == 0 {
+        if self.samples.is_multiple_of(self.progress_every) {
             let ms = |s: f32| (s * 1000.0) as u32;
             self.link.send(&BoardMessage::Progress {
                 stage: self.stage,

@@ -38,9 +38,7 @@ pub fn run_experiment<const N: usize>(
     if !limits.usable() {
         return Err(JobEnd::Refused(Refusal::BadLimits));
     }
-    let mut bench = Bench::new(drive, link, watchdog, *limits);
-    let result = probe_and_record(&mut bench, store);
-    drop(bench);
+    let result = probe_and_record(&mut Bench::new(drive, link, watchdog, *limits), store);
     drive.stop();
     result
 }

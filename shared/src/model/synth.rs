@@ -69,6 +69,7 @@ pub fn synthesize(
 
 /// A motor drawn log-uniformly from the seed's Table 1 box with random seed `seed`, no
 /// effects (the benchmarks' motors).
+#[cfg(any(test, feature = "std"))]
 pub fn table_one_motor(seed: u64) -> ModelParams {
     let mut r = rng::seeded(seed);
     let mut truth = ModelParams::SEED_MOTOR;

@@ -1,0 +1,283 @@
+//! `motor-id commission --sim`: the board's own commissioning (probe, experiment designed
+//! from it, fit of its records; the shared device code unchanged) run on the host against a
+//! simulated motor, so that a motor is tried before a board is flashed. It writes the
+//! board's report, the plan, and the records the board recorded.
+
+use crate::csvio::OwnedRecord;
+use crate::output::write_json;
+use crate::progress::{BarState, FitProgress};
+use crate::report::board::{plan_text, BoardReport};
+use crate::report::Num;
+use crate::spec::{parse_effect, parse_motor, EffectSpec};
+use anyhow::{bail, Result};
+use clap::Args;
+use motor_id_shared::device::job::JobEnd;
+use motor_id_shared::device::limits::Limits;
+use motor_id_shared::device::plant::SimulatedPlant;
+use motor_id_shared::device::virtual_board::{commission, BoardRecord};
+use motor_id_shared::wire::protocol::{BoardMessage, Plan};
+use motor_id_shared::ModelParams;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// The arguments of `commission`.
+#[derive(Args, Debug)]
+pub struct CommissionArgs {
+    /// Commission a simulated motor on the host (the virtual board); a real board
+    /// commissions itself (`motor-id board commission`).
+    #[arg(long)]
+    pub sim: bool,
+    /// The simulated motor `ra=..,la=..,j=..,b=..,kv=..` (default: the seed paper's motor).
+    #[arg(long, value_name = "ra=..,la=..,j=..,b=..,kv=..", value_parser = parse_motor)]
+    pub motor: Option<ModelParams>,
+    /// Add an effect to the simulated motor, e.g. `coulomb_friction:tc=0.05` (repeatable).
+    #[arg(long, value_name = "NAME:key=val,...", value_parser = parse_effect)]
+    pub effect: Vec<EffectSpec>,
+    /// Largest armature voltage the drive applies [V].
+    #[arg(long, default_value_t = Limits::DEFAULT.voltage, value_parser = positive)]
+    pub voltage: f32,
+    /// Current limit (trip) [A].
+    #[arg(long, default_value_t = Limits::DEFAULT.current, value_parser = positive)]
+    pub current: f32,
+    /// Speed limit (trip) [rad/s].
+    #[arg(long, default_value_t = Limits::DEFAULT.speed, value_parser = positive)]
+    pub speed: f32,
+    /// Time budget of the experiment, probe included [s] (5 to 86,400).
+    #[arg(long, default_value_t = Limits::DEFAULT.budget, value_parser = budget)]
+    pub budget: f32,
+    /// The drive's sample rate (ADC and PWM) [Hz] (100 to 100,000).
+    #[arg(long, default_value_t = 20_000.0, value_parser = rate)]
+    pub rate: f32,
+    /// Bits of the ADC that reads tacho and current, over ±1.2 times the speed and current
+    /// limits (0: no quantisation; 4 to 24 otherwise).
+    #[arg(long, default_value_t = 12, value_parser = adc_bits)]
+    pub adc_bits: u32,
+    /// White noise on the speed reading [rad/s].
+    #[arg(long, default_value_t = 0.1, value_parser = non_negative)]
+    pub noise_omega: f32,
+    /// White noise on the current reading [A].
+    #[arg(long, default_value_t = 0.005, value_parser = non_negative)]
+    pub noise_current: f32,
+    /// Random seed of the identification (the sensor noise takes it plus one).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the report as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the board's records as record CSVs (`slow.csv`, `fast.csv`) into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub out_dir: Option<PathBuf>,
+    /// No progress on stderr.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+fn number(text: &str) -> Result<f32, String> {
+    text.parse::<f32>()
+        .map_err(|_| format!("'{text}' is not a number"))
+}
+
+fn positive(text: &str) -> Result<f32, String> {
+    match number(text)? {
+        x if x.is_finite() && x > 0.0 && x <= 1e6 => Ok(x),
+        _ => Err("must be a finite number above 0 and at most 1e6".into()),
+    }
+}
+
+fn non_negative(text: &str) -> Result<f32, String> {
+    match number(text)? {
+        x if x.is_finite() && (0.0..=1e6).contains(&x) => Ok(x),
+        _ => Err("must be a finite number from 0 to 1e6".into()),
+    }
+}
+
+fn budget(text: &str) -> Result<f32, String> {
+    match number(text)? {
+        x if (Limits::MIN_BUDGET..=86_400.0).contains(&x) => Ok(x),
+        _ => Err(format!(
+            "must be from {} to 86400 seconds",
+            Limits::MIN_BUDGET
+        )),
+    }
+}
+
+fn rate(text: &str) -> Result<f32, String> {
+    match number(text)? {
+        x if (100.0..=100_000.0).contains(&x) => Ok(x),
+        _ => Err("must be from 100 to 100000 Hz".into()),
+    }
+}
+
+fn adc_bits(text: &str) -> Result<u32, String> {
+    match text.parse::<u32>() {
+        Ok(b) if b == 0 || (4..=24).contains(&b) => Ok(b),
+        _ => Err("must be 0 or a whole number from 4 to 24".into()),
+    }
+}
+
+/// What `commission` reports.
+#[derive(Serialize, Debug)]
+struct CommissionReport {
+    /// The limits it worked within.
+    limits: LimitsReport,
+    /// What the probe measured and the experiment designed from it (null: refused before).
+    plan: Option<PlanReport>,
+    /// Time the experiment took on the drive [s].
+    experiment_seconds: Num,
+    /// The board's report of the motor (null: not commissioned).
+    motor: Option<BoardReport>,
+    /// Why it was not commissioned (null: commissioned).
+    refusal: Option<String>,
+}
+
+#[derive(Serialize, Debug)]
+struct LimitsReport {
+    voltage: Num,
+    current: Num,
+    speed: Num,
+    budget: Num,
+}
+
+#[derive(Serialize, Debug)]
+struct PlanReport {
+    current_offset: Num,
+    breakaway_volts: Num,
+    ra: Num,
+    tau_e: Num,
+    kv: Num,
+    tau_m: Num,
+    volts: Num,
+    slow: RecordReport,
+    fast: RecordReport,
+    probe_seconds: Num,
+    planned_seconds: Num,
+}
+
+#[derive(Serialize, Debug)]
+struct RecordReport {
+    dt: Num,
+    samples: u16,
+}
+
+impl PlanReport {
+    fn new(p: &Plan) -> PlanReport {
+        PlanReport {
+            current_offset: Num(p.current_offset),
+            breakaway_volts: Num(p.breakaway_volts),
+            ra: Num(p.ra),
+            tau_e: Num(p.tau_e),
+            kv: Num(p.kv),
+            tau_m: Num(p.tau_m),
+            volts: Num(p.volts),
+            slow: RecordReport {
+                dt: Num(p.slow_dt),
+                samples: p.slow_samples,
+            },
+            fast: RecordReport {
+                dt: Num(p.fast_dt),
+                samples: p.fast_samples,
+            },
+            probe_seconds: Num(p.probe_seconds),
+            planned_seconds: Num(p.planned_seconds),
+        }
+    }
+}
+
+/// A board record as a record CSV.
+fn owned(r: &BoardRecord, path: PathBuf) -> OwnedRecord {
+    OwnedRecord {
+        path,
+        t0: 0.0,
+        dt: r.dt,
+        v: r.v.clone(),
+        omega: r.omega.clone(),
+        current: Some(r.current.clone()),
+        load: None,
+        coast_from: r.coast_from,
+    }
+}
+
+/// Set by Ctrl-C: the virtual board hears it as the host's abort.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Run `commission`.
+pub fn run(a: &CommissionArgs) -> Result<()> {
+    if !a.sim {
+        bail!("commission runs on the virtual board only (--sim); a drive board commissions itself at power-up, or with `motor-id board --port PORT commission`");
+    }
+    let mut motor = a.motor.unwrap_or(ModelParams::SEED_MOTOR);
+    for e in &a.effect {
+        e.apply(&mut motor)?;
+    }
+    if let Some(dir) = &a.out_dir {
+        if !dir.is_dir() {
+            bail!("--out-dir {}: no such directory", dir.display());
+        }
+    }
+    let limits = Limits {
+        voltage: a.voltage,
+        current: a.current,
+        speed: a.speed,
+        budget: a.budget,
+    };
+    let mut plant = SimulatedPlant::new(
+        &motor,
+        1.0 / a.rate,
+        a.noise_omega,
+        a.noise_current,
+        a.seed.wrapping_add(1),
+    )?;
+    if a.adc_bits > 0 {
+        let counts = (1u32 << a.adc_bits) as f32;
+        plant.resolution.omega = 2.4 * limits.speed / counts;
+        plant.resolution.current = 2.4 * limits.current / counts;
+    }
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+    let bar = FitProgress::new(a.quiet);
+    let outcome = commission(plant, limits, a.seed, Some(&INTERRUPTED), &mut |m| {
+        if let BoardMessage::Planned(plan) = m {
+            if !a.quiet {
+                bar.println(&plan_text(plan));
+            }
+        } else if let Some(state) = BarState::of_board(m) {
+            bar.show(&state);
+        }
+    });
+    bar.finish();
+    let (motor, refusal) = match &outcome.result {
+        Ok(r) => (Some(BoardReport::new(r)?), None),
+        Err(JobEnd::Aborted) => (None, Some("interrupted: the experiment was stopped".into())),
+        Err(JobEnd::Refused(r)) => (None, Some(r.to_string())),
+    };
+    let report = CommissionReport {
+        limits: LimitsReport {
+            voltage: Num(limits.voltage),
+            current: Num(limits.current),
+            speed: Num(limits.speed),
+            budget: Num(limits.budget),
+        },
+        plan: outcome.plan.as_ref().map(PlanReport::new),
+        experiment_seconds: Num(outcome.seconds),
+        motor,
+        refusal,
+    };
+    if let Some(path) = &a.json {
+        write_json(path, &report)?;
+    }
+    if let Some(dir) = &a.out_dir {
+        for (r, name) in outcome.records.iter().zip(["slow.csv", "fast.csv"]) {
+            let path = dir.join(name);
+            owned(r, path.clone()).write(&path)?;
+        }
+    }
+    match (&report.motor, &report.refusal) {
+        (Some(m), _) => {
+            print!("{}", m.text());
+            println!("experiment: {:.1} s", outcome.seconds);
+            Ok(())
+        }
+        (None, Some(why)) => bail!("not commissioned: {why}"),
+        (None, None) => unreachable!("a report or a refusal"),
+    }
+}
