@@ -10,9 +10,11 @@
 //! - [`dynamics`]: the equations and the stick-slip logic;
 //! - [`sensors`]: tacho (delay, ripple), encoder, current offset, noise;
 //! - [`experiments`]: input sequences;
-//! - [`csv`]: reading and writing record CSVs.
+//! - [`csv`]: reading and writing record CSVs;
+//! - [`drive`]: the plant behind the device code's drive trait (commissioning).
 
 pub mod csv;
+pub mod drive;
 pub mod dynamics;
 pub mod experiments;
 pub mod sensors;

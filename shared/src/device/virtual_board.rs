@@ -7,7 +7,6 @@
 use crate::device::hardware::{Drive, Hardware, Link, NoWatchdog, ParamStore, Watchdog};
 use crate::device::job::JobEnd;
 use crate::device::limits::Limits;
-use crate::device::plant::SimulatedPlant;
 use crate::device::record_store::RecordStore;
 use crate::device::service::Service;
 use crate::wire::protocol::{BoardMessage, HostMessage, MotorReport, NotStored, Plan};
@@ -82,11 +81,35 @@ impl ParamStore for RamParams {
     }
 }
 
-/// Commission `plant` within `limits` with identification seed `seed`, as the board does:
-/// every message goes to `on_message` as it is sent; `abort` set stops it (as the host's
-/// `Abort` does).
-pub fn commission(
-    plant: SimulatedPlant,
+/// A drive that counts its samples.
+struct Counted<D> {
+    drive: D,
+    samples: u32,
+}
+
+impl<D: Drive> Drive for Counted<D> {
+    fn dt(&self) -> f32 {
+        self.drive.dt()
+    }
+    fn step(&mut self, volts: f32) -> crate::device::hardware::Sample {
+        self.samples += 1;
+        self.drive.step(volts)
+    }
+    fn coast(&mut self) -> crate::device::hardware::Sample {
+        self.samples += 1;
+        self.drive.coast()
+    }
+    fn stop(&mut self) {
+        self.drive.stop();
+    }
+}
+
+/// Commission `plant` (the simulated plant of [`crate::device::plant`], or any other drive:
+/// the tests' independent reference plant) within `limits` with identification seed `seed`,
+/// as the board does: every message goes to `on_message` as it is sent; `abort` set stops
+/// it (as the host's `Abort` does).
+pub fn commission<D: Drive>(
+    plant: D,
     limits: Limits,
     seed: u64,
     abort: Option<&AtomicBool>,
@@ -99,7 +122,10 @@ pub fn commission(
             abort,
             plan: None,
         },
-        drive: plant,
+        drive: Counted {
+            drive: plant,
+            samples: 0,
+        },
         params: RamParams::default(),
         watchdog: NoWatchdog,
     };

@@ -1,0 +1,162 @@
+//! Self-commissioning of motors the board knows nothing of: the device code's probe,
+//! experiment and fit (through the virtual board) against the independent reference plant
+//! (its own RK4 and friction), with 12-bit readings; and `motor-id commission --sim`.
+
+use motor_id_shared::device::job::JobEnd;
+use motor_id_shared::device::limits::Limits;
+use motor_id_shared::device::virtual_board::commission;
+use motor_id_shared::param_id::ParamId;
+use motor_id_shared::wire::protocol::Refusal;
+use motor_id_tests::reference_plant::drive::ReferenceDrive;
+use motor_id_tests::reference_plant::{Effects, Motor};
+use motor_id_tests::{json, param, run, run_err, run_ok, s};
+
+/// The drive's sample rate in these tests [Hz].
+const RATE: f64 = 5_000.0;
+
+/// `m` with Coulomb friction of 5 % of the torque the default limits allow, behind a drive
+/// whose 12-bit ADC spans ±1.2 times the speed and current limits.
+fn drive(m: Motor, tc: f64, seed: u64) -> ReferenceDrive {
+    let limits = Limits::DEFAULT;
+    let e = Effects {
+        tc,
+        ..Effects::default()
+    };
+    let mut d = ReferenceDrive::new(m, e, 1.0 / RATE, seed);
+    d.sigma = (0.1, 0.005);
+    d.count = (
+        2.4 * limits.speed as f64 / 4096.0,
+        2.4 * limits.current as f64 / 4096.0,
+    );
+    d
+}
+
+#[test]
+fn corners_of_the_box_commission_within_three_percent_on_the_reference_plant() {
+    // Corners where viscous friction at the highest speed the limits allow is a fair share of
+    // the Coulomb friction: where it is not (B ω under a few % of tc), B is rightly not
+    // pinned (the commissioning benchmark counts those).
+    let limits = Limits::DEFAULT;
+    let corners = [
+        Motor::SEED,
+        Motor {
+            ra: 0.5,
+            la: 0.01,
+            j: 0.2,
+            b: 0.05,
+            kv: 1.0,
+        },
+        Motor {
+            ra: 5.0,
+            la: 0.1,
+            j: 0.1,
+            b: 0.02,
+            kv: 1.0,
+        },
+        Motor {
+            ra: 2.0,
+            la: 0.05,
+            j: 1.0,
+            b: 0.05,
+            kv: 1.0,
+        },
+        Motor {
+            ra: 1.0,
+            la: 0.2,
+            j: 0.5,
+            b: 0.02,
+            kv: 0.5,
+        },
+    ];
+    for (k, m) in corners.into_iter().enumerate() {
+        let tc = 0.05 * m.kv * limits.current as f64;
+        let c = commission(drive(m, tc, k as u64 + 1), limits, 1, None, &mut |_| {});
+        let report = c
+            .result
+            .unwrap_or_else(|e| panic!("{m:?}: {e:?}, plan {:?}", c.plan));
+        let truth = [
+            (ParamId::Ra, m.ra),
+            (ParamId::La, m.la),
+            (ParamId::J, m.j),
+            (ParamId::B, m.b),
+            (ParamId::Kv, m.kv),
+            (ParamId::Tc, tc),
+        ];
+        for (id, t) in truth {
+            let e = report.get(id.index() as u8).expect("six estimates");
+            assert!(
+                e.pinned() && (e.value as f64 / t - 1.0).abs() < 0.03,
+                "{m:?} {}: {e:?} vs {t}, plan {:?}",
+                id.name(),
+                c.plan
+            );
+        }
+        assert!(c.seconds <= limits.budget, "{m:?}: {} s", c.seconds);
+    }
+}
+
+#[test]
+fn a_motor_whose_break_away_needs_more_than_the_current_limit_is_refused_before_a_trip() {
+    // The seed motor with friction of 1.2 times the torque 40 A gives.
+    let limits = Limits::DEFAULT;
+    let tc = 1.2 * Motor::SEED.kv * limits.current as f64;
+    let mut d = drive(Motor::SEED, tc, 9);
+    let c = commission(&mut d, limits, 1, None, &mut |_| {});
+    assert_eq!(c.result.unwrap_err(), JobEnd::Refused(Refusal::NoMotion));
+    assert!(d.largest.0 < limits.current as f64, "{} A", d.largest.0);
+    assert_eq!(d.stopped, 1);
+}
+
+#[test]
+fn commission_sim_reports_the_motor_its_plan_and_its_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("c.json");
+    run_ok(&[
+        "commission",
+        "--sim",
+        "--effect",
+        "coulomb_friction:tc=0.05",
+        "--rate",
+        "5000",
+        "--json",
+        s(&report),
+        "--out-dir",
+        s(dir.path()),
+        "-q",
+    ]);
+    let r = json(&report);
+    let motor = &r["motor"];
+    for (name, t) in [
+        ("ra", 3.412),
+        ("la", 0.0573),
+        ("j", 0.0424),
+        ("b", 0.00267),
+        ("kv", 0.1604),
+        ("tc", 0.05),
+    ] {
+        let got = param(motor, name);
+        assert!((got / t - 1.0).abs() < 0.03, "{name}: {got} vs {t}");
+    }
+    assert!(r["experiment_seconds"].as_f64().unwrap() <= 60.0, "{r}");
+    assert!(r["plan"]["ra"].as_f64().unwrap() > 0.0, "{r}");
+    // The board's records, as record CSVs that identify reads.
+    for name in ["slow.csv", "fast.csv"] {
+        let csv = dir.path().join(name);
+        run_ok(&["identify", s(&csv), "-q"]);
+    }
+    // A motor it cannot turn: refused, one line, status 1; out-of-range limits: status 2.
+    let err = run_err(&[
+        "commission",
+        "--sim",
+        "--current",
+        "1",
+        "--effect",
+        "coulomb_friction:tc=0.5",
+        "-q",
+    ]);
+    assert!(err.contains("does not turn"), "{err}");
+    for bad in [["--budget", "1"], ["--voltage", "-5"], ["--rate", "nan"]] {
+        let out = run(&["commission", "--sim", bad[0], bad[1]]);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+    }
+}
