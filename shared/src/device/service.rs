@@ -189,8 +189,7 @@ impl<'s, const N: usize> Service<'s, N> {
                     hw.link.send(&BoardMessage::ChunkOk { next: len as u32 });
                     return;
                 }
-                let ok = s.count == 1
-                    && offset as usize == len
+                let ok = offset as usize == len
                     && omega.len() == n
                     && (!s.with_current || current.len() == n)
                     && len + n <= s.expected;
