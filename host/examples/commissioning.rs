@@ -39,8 +39,7 @@ fn main() {
         let looks_like_motor = kv * kv >= 3.0 * ra * b && la / ra < tau_m;
         let mut plant =
             SimulatedPlant::new(&truth, 1.0 / rate, 0.1, 0.005, m as u64 + 1).expect("plant");
-        plant.resolution.omega = 2.4 * limits.speed / 4096.0;
-        plant.resolution.current = 2.4 * limits.current / 4096.0;
+        (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(12);
         let c = commission(plant, limits, 1, None, &mut |_| {});
         seconds.push(c.seconds);
         like += looks_like_motor as usize;
@@ -62,14 +61,7 @@ fn main() {
             }
         };
         let mut ok = true;
-        for id in [
-            ParamId::Ra,
-            ParamId::La,
-            ParamId::J,
-            ParamId::B,
-            ParamId::Kv,
-            ParamId::Tc,
-        ] {
+        for &id in ParamId::ALL[..=ParamId::Tc.index()].iter() {
             let e = report.get(id.index() as u8).expect("six estimates");
             let t = truth.get(id);
             let rel = (e.value / t - 1.0).abs();

@@ -24,10 +24,8 @@ fn drive(m: Motor, tc: f64, seed: u64) -> ReferenceDrive {
     };
     let mut d = ReferenceDrive::new(m, e, 1.0 / RATE, seed);
     d.sigma = (0.1, 0.005);
-    d.count = (
-        2.4 * limits.speed as f64 / 4096.0,
-        2.4 * limits.current as f64 / 4096.0,
-    );
+    let (w, i) = limits.adc_counts(12);
+    d.count = (w as f64, i as f64);
     d
 }
 

@@ -91,36 +91,17 @@ fn the_progress_bar_is_as_long_as_the_stage_the_board_announces() {
         let positions: Vec<u64> = states.iter().map(|s| s.position).collect();
         assert_eq!(positions, [1, 2, 3, 4, 5], "{stage:?}");
     }
-    assert_eq!(
-        BarState::of_board(&frame(JobStage::Experiment, 0))
-            .unwrap()
-            .prefix,
-        "experiment"
-    );
-    assert_eq!(
-        BarState::of_board(&frame(JobStage::Probe, 0))
-            .unwrap()
-            .prefix,
-        "probe"
-    );
-    assert_eq!(
-        BarState::of_board(&frame(JobStage::Search, 0))
-            .unwrap()
-            .prefix,
-        "FFO"
-    );
-    assert_eq!(
-        BarState::of_board(&frame(JobStage::Refine, 0))
-            .unwrap()
-            .prefix,
-        "refine"
-    );
-    assert_eq!(
-        BarState::of_board(&frame(JobStage::Check, 0))
-            .unwrap()
-            .prefix,
-        "check"
-    );
+    let prefixes = [
+        (JobStage::Experiment, "experiment"),
+        (JobStage::Probe, "probe"),
+        (JobStage::Search, "FFO"),
+        (JobStage::Refine, "refine"),
+        (JobStage::Check, "check"),
+    ];
+    for (stage, prefix) in prefixes {
+        let state = BarState::of_board(&frame(stage, 0)).unwrap();
+        assert_eq!(state.prefix, prefix, "{stage:?}");
+    }
     // A board that runs past its announced total stretches the bar instead of overfilling it.
     assert_eq!(
         BarState::of_board(&frame(JobStage::Refine, 50))

@@ -35,29 +35,29 @@ pub struct CommissionArgs {
     #[arg(long, value_name = "NAME:key=val,...", value_parser = parse_effect)]
     pub effect: Vec<EffectSpec>,
     /// Largest armature voltage the drive applies [V].
-    #[arg(long, default_value_t = Limits::DEFAULT.voltage, value_parser = positive)]
+    #[arg(long, default_value_t = Limits::DEFAULT.voltage, value_parser = within(f32::MIN_POSITIVE, 1e6))]
     pub voltage: f32,
     /// Current limit (trip) [A].
-    #[arg(long, default_value_t = Limits::DEFAULT.current, value_parser = positive)]
+    #[arg(long, default_value_t = Limits::DEFAULT.current, value_parser = within(f32::MIN_POSITIVE, 1e6))]
     pub current: f32,
     /// Speed limit (trip) [rad/s].
-    #[arg(long, default_value_t = Limits::DEFAULT.speed, value_parser = positive)]
+    #[arg(long, default_value_t = Limits::DEFAULT.speed, value_parser = within(f32::MIN_POSITIVE, 1e6))]
     pub speed: f32,
     /// Time budget of the experiment, probe included [s] (5 to 86,400).
-    #[arg(long, default_value_t = Limits::DEFAULT.budget, value_parser = budget)]
+    #[arg(long, default_value_t = Limits::DEFAULT.budget, value_parser = within(Limits::MIN_BUDGET, 86_400.0))]
     pub budget: f32,
     /// The drive's sample rate (ADC and PWM) [Hz] (100 to 100,000).
-    #[arg(long, default_value_t = 20_000.0, value_parser = rate)]
+    #[arg(long, default_value_t = 20_000.0, value_parser = within(100.0, 100_000.0))]
     pub rate: f32,
     /// Bits of the ADC that reads tacho and current, over ±1.2 times the speed and current
     /// limits (0: no quantisation; 4 to 24 otherwise).
     #[arg(long, default_value_t = 12, value_parser = adc_bits)]
     pub adc_bits: u32,
     /// White noise on the speed reading [rad/s].
-    #[arg(long, default_value_t = 0.1, value_parser = non_negative)]
+    #[arg(long, default_value_t = 0.1, value_parser = within(0.0, 1e6))]
     pub noise_omega: f32,
     /// White noise on the current reading [A].
-    #[arg(long, default_value_t = 0.005, value_parser = non_negative)]
+    #[arg(long, default_value_t = 0.005, value_parser = within(0.0, 1e6))]
     pub noise_current: f32,
     /// Random seed of the identification (the sensor noise takes it plus one).
     #[arg(long, default_value_t = 1)]
@@ -73,39 +73,14 @@ pub struct CommissionArgs {
     pub quiet: bool,
 }
 
-fn number(text: &str) -> Result<f32, String> {
-    text.parse::<f32>()
-        .map_err(|_| format!("'{text}' is not a number"))
-}
-
-fn positive(text: &str) -> Result<f32, String> {
-    match number(text)? {
-        x if x.is_finite() && x > 0.0 && x <= 1e6 => Ok(x),
-        _ => Err("must be a finite number above 0 and at most 1e6".into()),
-    }
-}
-
-fn non_negative(text: &str) -> Result<f32, String> {
-    match number(text)? {
-        x if x.is_finite() && (0.0..=1e6).contains(&x) => Ok(x),
-        _ => Err("must be a finite number from 0 to 1e6".into()),
-    }
-}
-
-fn budget(text: &str) -> Result<f32, String> {
-    match number(text)? {
-        x if (Limits::MIN_BUDGET..=86_400.0).contains(&x) => Ok(x),
-        _ => Err(format!(
-            "must be from {} to 86400 seconds",
-            Limits::MIN_BUDGET
-        )),
-    }
-}
-
-fn rate(text: &str) -> Result<f32, String> {
-    match number(text)? {
-        x if (100.0..=100_000.0).contains(&x) => Ok(x),
-        _ => Err("must be from 100 to 100000 Hz".into()),
+/// A value parser for a number from `lo` to `hi` (both included; `lo` may be
+/// `f32::MIN_POSITIVE` for "above 0"): NaN, infinities and anything outside are refused.
+fn within(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
+    move |text: &str| match text.parse::<f32>() {
+        Ok(x) if (lo..=hi).contains(&x) => Ok(x),
+        Ok(_) if lo == f32::MIN_POSITIVE => Err(format!("must be above 0 and at most {hi}")),
+        Ok(_) => Err(format!("must be from {lo} to {hi}")),
+        Err(_) => Err(format!("'{text}' is not a number")),
     }
 }
 
@@ -229,9 +204,7 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         a.seed.wrapping_add(1),
     )?;
     if a.adc_bits > 0 {
-        let counts = (1u32 << a.adc_bits) as f32;
-        plant.resolution.omega = 2.4 * limits.speed / counts;
-        plant.resolution.current = 2.4 * limits.current / counts;
+        (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(a.adc_bits);
     }
     let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
     let bar = FitProgress::new(a.quiet);

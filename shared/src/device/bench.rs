@@ -1,7 +1,8 @@
 //! The drive as commissioning's stages use it: every sample at the drive's own (fastest)
 //! rate, the current sensor's offset subtracted, the limits checked at every sample (a
-//! breach stops the drive: a trip), the watchdog fed, the time counted against the budget,
-//! progress sent and an abort heard every tenth of a second.
+//! breach ends the job: a trip; a stage's guard below them opens the bridge first), the
+//! watchdog fed, the time counted against the budget, progress sent and an abort heard
+//! every tenth of a second.
 
 use crate::device::hardware::{Bridge, Drive, Link, Sample, Watchdog};
 use crate::device::job::{abort_requested, JobEnd};
@@ -52,11 +53,6 @@ impl<'a, D: Drive, L: Link, W: Watchdog> Bench<'a, D, L, W> {
         self.dt
     }
 
-    /// Samples applied so far.
-    pub fn samples(&self) -> u32 {
-        self.samples
-    }
-
     /// Time since commissioning began [s].
     pub fn seconds(&self) -> f32 {
         self.samples as f32 * self.dt
@@ -78,22 +74,23 @@ impl<'a, D: Drive, L: Link, W: Watchdog> Bench<'a, D, L, W> {
     }
 
     /// Apply `bridge` for one sample and return the sample read at its start, the current's
-    /// offset removed. A non-finite reading stops the drive ([`Refusal::SensorFault`]); so
-    /// does a current or speed beyond its limit ([`Refusal::Trip`]) and an abort (the caller
-    /// stops the drive before anything else).
+    /// offset removed. A non-finite reading ends the job ([`Refusal::SensorFault`]); so does
+    /// a current or speed beyond its limit ([`Refusal::Trip`]) and an abort (the caller,
+    /// [`crate::device::commissioning::run_experiment`], stops the drive before anything
+    /// else).
     pub fn apply(&mut self, bridge: Bridge) -> Result<Sample, JobEnd> {
         self.watchdog.feed();
         let raw = self.drive.apply(bridge);
         self.samples += 1;
         if !(raw.omega.is_finite() && raw.current.is_finite()) {
-            return Err(self.halt(JobEnd::Refused(Refusal::SensorFault)));
+            return Err(JobEnd::Refused(Refusal::SensorFault));
         }
         let s = Sample {
             omega: raw.omega,
             current: raw.current - self.current_offset,
         };
         if s.current.abs() > self.limits.current || s.omega.abs() > self.limits.speed {
-            return Err(self.halt(JobEnd::Refused(Refusal::Trip)));
+            return Err(JobEnd::Refused(Refusal::Trip));
         }
         if self.samples.is_multiple_of(self.progress_every) {
             let ms = |s: f32| (s * 1000.0) as u32;
@@ -105,22 +102,23 @@ impl<'a, D: Drive, L: Link, W: Watchdog> Bench<'a, D, L, W> {
                 best: 0.0,
             });
             if abort_requested(self.link) {
-                return Err(self.halt(JobEnd::Aborted));
+                return Err(JobEnd::Aborted);
             }
         }
         Ok(s)
     }
 
-    /// Whether `s` lies beyond the [`GUARD`] share of the current limit or of `speed_share`
-    /// of the speed limit: the stage then opens the bridge itself.
-    pub fn guarded(&self, s: Sample, speed_share: f32) -> bool {
-        s.current.abs() > GUARD * self.limits.current
-            || s.omega.abs() > speed_share * self.limits.speed
-    }
-
-    /// The end of the job: the caller stops the drive at once
-    /// ([`crate::device::commissioning::run_experiment`]).
-    fn halt(&mut self, end: JobEnd) -> JobEnd {
-        end
+    /// Drive `volts` for one sample, as [`Bench::apply`]; `None` when the reading lies beyond
+    /// the [`GUARD`] share of the current limit or `speed_share` of the speed limit: the
+    /// bridge is then opened for a sample (no current flows) and the stage backs off.
+    pub fn guarded(&mut self, bridge: Bridge, speed_share: f32) -> Result<Option<Sample>, JobEnd> {
+        let s = self.apply(bridge)?;
+        let beyond = s.current.abs() > GUARD * self.limits.current
+            || s.omega.abs() > speed_share * self.limits.speed;
+        if beyond {
+            self.apply(Bridge::Open)?;
+            return Ok(None);
+        }
+        Ok(Some(s))
     }
 }

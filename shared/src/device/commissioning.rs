@@ -5,24 +5,17 @@
 //! ([`crate::device::experiment`]); the problem the board then solves is
 //! [`commissioning_spec`].
 
-use crate::device::bench::Bench;
+use crate::device::bench::{Bench, GUARD};
 use crate::device::design::{design, Design};
 use crate::device::experiment::{coast_start, fast_input, record, slow_input};
 use crate::device::hardware::{Drive, Link, Watchdog};
 use crate::device::job::JobEnd;
 use crate::device::limits::Limits;
-use crate::device::probe::{
-    electrical_step, mechanical_step, quiet, ramp, rest_and_offset, SPEED_SHARE,
-};
+use crate::device::probe::{probe, quiet, Probed, QUIET_BUDGET};
 use crate::device::record_store::RecordStore;
 use crate::fit::space::ProblemSpec;
 use crate::param_id::ParamId;
 use crate::wire::protocol::{BoardMessage, JobStage, Plan, Refusal};
-
-/// Share of the budget the mechanical step may take at most.
-const MECHANICAL_BUDGET: f32 = 0.3;
-/// Share of the budget kept for the records when the mechanical step starts.
-const RECORDS_BUDGET: f32 = 0.5;
 
 /// The probe, the design and the records of a commissioning, into `store`, within `limits`:
 /// the plan is sent on the link before the records (and returned). A trip, a sensor fault,
@@ -47,39 +40,13 @@ fn probe_and_record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
     store: &mut RecordStore<N>,
 ) -> Result<Plan, JobEnd> {
-    let limits = bench.limits;
-    let rest = rest_and_offset(bench)?;
-    bench.current_offset = rest.current_offset;
-    let ramp = ramp(bench, &rest)?;
-    let electrical = electrical_step(bench, &rest, &ramp)?;
-    let floor = ramp.breakaway.unwrap_or(0.0);
-    let seconds =
-        (MECHANICAL_BUDGET * limits.budget).min(bench.left() - RECORDS_BUDGET * limits.budget);
-    let mechanical = mechanical_step(bench, &rest, &electrical, floor, seconds)?;
-    let probe_seconds = bench.seconds();
-    let d = design(
-        &limits,
-        bench.dt(),
-        N,
-        probe_seconds,
-        &ramp,
-        &electrical,
-        &mechanical,
-    )
-    .map_err(JobEnd::Refused)?;
-    let plan = plan(
-        &d,
-        bench.dt(),
-        &rest,
-        &ramp,
-        &electrical,
-        &mechanical,
-        probe_seconds,
-    );
+    let probed = probe(bench)?;
+    let d = design(&bench.limits, bench.dt(), N, &probed).map_err(JobEnd::Refused)?;
+    let plan = plan(&d, bench.dt(), &probed);
     bench.link().send(&BoardMessage::Planned(plan));
     bench.enter(JobStage::Experiment);
     store.clear(true);
-    record_designed(bench, store, &d, &rest)?;
+    record_designed(bench, store, &d, &probed)?;
     Ok(plan)
 }
 
@@ -90,17 +57,16 @@ fn record_designed<const N: usize, D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
     store: &mut RecordStore<N>,
     d: &Design,
-    rest: &crate::device::probe::Rest,
+    probed: &Probed,
 ) -> Result<(), JobEnd> {
-    let guard = (SPEED_SHARE + 1.0) / 2.0;
     let n = d.slow.samples;
-    let slow = record(bench, store, d.slow, guard, Some(coast_start(n)), |k| {
+    let slow = record(bench, store, d.slow, GUARD, Some(coast_start(n)), |k| {
         slow_input(k, n, d.volts)
     })?;
-    quiet(bench, rest, 0.05 * bench.limits.budget)?;
+    quiet(bench, &probed.rest, QUIET_BUDGET * bench.limits.budget)?;
     let n = d.fast.samples;
     let fast = slow
-        && record(bench, store, d.fast, guard, None, |k| {
+        && record(bench, store, d.fast, GUARD, None, |k| {
             fast_input(k, n, d.volts)
         })?;
     match fast {
@@ -110,30 +76,22 @@ fn record_designed<const N: usize, D: Drive, L: Link, W: Watchdog>(
 }
 
 /// The plan sent to the host: what the probe measured and the records designed from it.
-fn plan(
-    d: &Design,
-    dt: f32,
-    rest: &crate::device::probe::Rest,
-    ramp: &crate::device::probe::Ramp,
-    electrical: &crate::device::probe::Electrical,
-    mechanical: &crate::device::probe::Mechanical,
-    probe_seconds: f32,
-) -> Plan {
+fn plan(d: &Design, dt: f32, p: &Probed) -> Plan {
     let drive_samples = d.slow.drive_samples() + d.fast.drive_samples();
     Plan {
-        current_offset: rest.current_offset,
-        breakaway_volts: ramp.breakaway.unwrap_or(f32::NAN),
-        ra: electrical.ra,
-        tau_e: electrical.tau_e,
-        kv: mechanical.kv,
-        tau_m: mechanical.tau_m,
+        current_offset: p.rest.current_offset,
+        breakaway_volts: p.ramp.breakaway.unwrap_or(f32::NAN),
+        ra: p.electrical.ra,
+        tau_e: p.electrical.tau_e,
+        kv: p.mechanical.kv,
+        tau_m: p.mechanical.tau_m,
         volts: d.volts,
         fast_dt: d.fast.dt(dt),
         fast_samples: d.fast.samples as u16,
         slow_dt: d.slow.dt(dt),
         slow_samples: d.slow.samples as u16,
-        probe_seconds,
-        planned_seconds: probe_seconds + drive_samples as f32 * dt,
+        probe_seconds: p.seconds,
+        planned_seconds: p.seconds + drive_samples as f32 * dt,
     }
 }
 

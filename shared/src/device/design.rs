@@ -19,7 +19,7 @@
 //! whose break-away voltage lies above it is refused.
 
 use crate::device::limits::Limits;
-use crate::device::probe::{Electrical, Mechanical, Ramp, SPEED_SHARE};
+use crate::device::probe::{Probed, QUIET_BUDGET, SPEED_SHARE};
 use crate::wire::protocol::Refusal;
 
 /// Share of the current limit the experiment's start current may reach.
@@ -32,8 +32,6 @@ pub const FAST_SAMPLES: usize = 400;
 pub const SLOW_SPAN: f32 = 6.0;
 /// Share of the budget the fast record may take at most.
 const FAST_BUDGET: f32 = 0.15;
-/// Share of the budget kept for the wait before the fast record.
-const QUIET_BUDGET: f32 = 0.05;
 
 /// One record of the experiment.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,8 +59,6 @@ impl RecordPlan {
 pub struct Design {
     /// Largest voltage [V].
     pub volts: f32,
-    /// Break-away voltage [V] (0 when the probe's ramp did not turn the shaft).
-    pub floor: f32,
     /// The slow record (first: it takes over from the probe's mechanical step).
     pub slow: RecordPlan,
     /// The fast record.
@@ -83,20 +79,18 @@ fn odd(x: f32) -> u32 {
     }
 }
 
-/// The experiment for a motor the probe measured, with `capacity` record samples, a drive
-/// sampled every `dt`, and `elapsed` seconds of the budget spent. Refused when the speed
-/// limit leaves no voltage above the break-away ([`Refusal::TooFast`]) or the current limit
-/// none ([`Refusal::NoMotion`]).
+/// The experiment for a motor the probe measured, with `capacity` record samples and a
+/// drive sampled every `dt`, after the probe's time. Refused when the speed limit leaves no
+/// voltage above the break-away ([`Refusal::TooFast`]) or the current limit none
+/// ([`Refusal::NoMotion`]).
 pub fn design(
     limits: &Limits,
     dt: f32,
     capacity: usize,
-    elapsed: f32,
-    ramp: &Ramp,
-    electrical: &Electrical,
-    mechanical: &Mechanical,
+    probed: &Probed,
 ) -> Result<Design, Refusal> {
-    let floor = ramp.breakaway.unwrap_or(0.0);
+    let (electrical, mechanical) = (&probed.electrical, &probed.mechanical);
+    let floor = probed.ramp.breakaway.unwrap_or(0.0);
     let by_current = CURRENT_SHARE * limits.current * electrical.ra;
     let settled_drop = match mechanical.settled {
         true => electrical.ra * mechanical.current.max(0.0),
@@ -120,8 +114,10 @@ pub fn design(
         average: odd(fast_span / (fast_samples as f32 * dt)),
         samples: fast_samples,
     };
-    let left =
-        limits.budget - elapsed - fast.drive_samples() as f32 * dt - QUIET_BUDGET * limits.budget;
+    let left = limits.budget
+        - probed.seconds
+        - fast.drive_samples() as f32 * dt
+        - QUIET_BUDGET * limits.budget;
     let slow_span = (SLOW_SPAN * mechanical.tau_m).min(left).max(0.0);
     let slow_capacity = capacity - fast_samples;
     let average = odd(slow_span / (slow_capacity as f32 * dt));
@@ -131,7 +127,6 @@ pub fn design(
     };
     Ok(Design {
         volts,
-        floor,
         slow: RecordPlan { average, samples },
         fast,
     })
@@ -143,35 +138,39 @@ mod tests {
 
     const DT: f32 = 5e-5;
 
-    fn probe(ra: f32, tau_e: f32, kv: f32, tau_m: f32) -> (Ramp, Electrical, Mechanical) {
-        let ramp = Ramp {
-            breakaway: Some(1.0),
-            volts: 1.0,
-            current: 2.0,
-        };
-        let electrical = Electrical {
-            ra,
-            tau_e,
-            volts: 4.0,
-        };
-        let mechanical = Mechanical {
-            kv,
-            tau_m,
-            overshoot: 1.0,
-            volts: 10.0,
-            current: 0.0,
-            capped: false,
-            settled: true,
-        };
-        (ramp, electrical, mechanical)
+    use crate::device::probe::{Electrical, Mechanical, Ramp, Rest};
+
+    /// A probe that took 3 s and found the shaft breaking away at 1 V.
+    fn probe(ra: f32, tau_e: f32, kv: f32, tau_m: f32) -> Probed {
+        Probed {
+            rest: Rest {
+                current_offset: 0.0,
+                sigma_omega: 0.1,
+                sigma_current: 0.005,
+            },
+            ramp: Ramp {
+                breakaway: Some(1.0),
+                volts: 1.0,
+                current: 2.0,
+            },
+            electrical: Electrical { ra, tau_e },
+            mechanical: Mechanical {
+                kv,
+                tau_m,
+                overshoot: 1.0,
+                current: 0.0,
+                settled: true,
+            },
+            seconds: 3.0,
+        }
     }
 
     #[test]
     fn the_records_fit_the_budget_and_the_memory_and_resolve_both_modes() {
         let limits = Limits::DEFAULT;
         for (tau_e, tau_m) in [(1e-3, 0.01), (0.0168, 4.2), (0.2, 30.0), (1e-4, 1e-3)] {
-            let (r, e, m) = probe(3.4, tau_e, 0.16, tau_m);
-            let d = design(&limits, DT, 2000, 3.0, &r, &e, &m).unwrap();
+            let p = probe(3.4, tau_e, 0.16, tau_m);
+            let d = design(&limits, DT, 2000, &p).unwrap();
             assert!(d.slow.samples + d.fast.samples <= 2000);
             assert!(d.slow.average % 2 == 1 && d.fast.average % 2 == 1);
             let seconds = 3.0
@@ -192,19 +191,16 @@ mod tests {
     fn the_voltage_keeps_current_and_speed_under_their_shares() {
         let limits = Limits::DEFAULT;
         // Low resistance: the current limit binds (0.7 x 40 A x 0.5 ohm = 14 V).
-        let (r, e, m) = probe(0.5, 0.01, 1.0, 1.0);
-        let d = design(&limits, DT, 2000, 3.0, &r, &e, &m).unwrap();
+        let p = probe(0.5, 0.01, 1.0, 1.0);
+        let d = design(&limits, DT, 2000, &p).unwrap();
         assert!((d.volts - 14.0).abs() < 1e-4, "{}", d.volts);
         // Small Kv: the speed limit binds (0.01 x 350 rad/s = 3.5 V).
-        let (r, e, m) = probe(10.0, 0.01, 0.01, 1.0);
-        let d = design(&limits, DT, 2000, 3.0, &r, &e, &m).unwrap();
+        let p = probe(10.0, 0.01, 0.01, 1.0);
+        let d = design(&limits, DT, 2000, &p).unwrap();
         assert!((d.volts - 3.5).abs() < 1e-4, "{}", d.volts);
         // Smaller still: no voltage above the break-away (1 V, read late: half of it) stays
         // under the speed limit.
-        let (r, e, m) = probe(10.0, 0.01, 1e-3, 1.0);
-        assert_eq!(
-            design(&limits, DT, 2000, 3.0, &r, &e, &m),
-            Err(Refusal::TooFast)
-        );
+        let p = probe(10.0, 0.01, 1e-3, 1.0);
+        assert_eq!(design(&limits, DT, 2000, &p), Err(Refusal::TooFast));
     }
 }

@@ -49,9 +49,8 @@ pub fn fast_input(k: usize, n: usize, volts: f32) -> Bridge {
 
 /// Record one record into `store` after those it holds: `plan.samples` samples of
 /// `plan.average` drive samples each, the bridge as `input(k)` over record sample k, its
-/// coast-down from `coast_from`. `Ok(false)` when a reading passed the bench's guard (the
-/// current's, or `speed_share` of the speed limit): the bridge is then open and the record
-/// incomplete.
+/// coast-down from `coast_from`. `Ok(false)` when a reading passed the bench's guard
+/// ([`Bench::guarded`]): the bridge is then open and the record incomplete.
 pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
     store: &mut RecordStore<N>,
@@ -60,8 +59,7 @@ pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     coast_from: Option<usize>,
     input: impl Fn(usize) -> Bridge,
 ) -> Result<bool, JobEnd> {
-    let index = store.open(plan.dt(bench.dt()));
-    store.segments[index].coast_from = coast_from;
+    let index = store.open(plan.dt(bench.dt()), coast_from);
     let n = plan.samples.min(store.free());
     if n == 0 {
         return Ok(true);
@@ -70,12 +68,9 @@ pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     let half = (m - 1) / 2;
     let (mut sum_w, mut sum_i) = (0.0f32, 0.0f32);
     for b in 0..=(n - 1) * m + half {
-        let bridge = input((b / m).min(n - 1));
-        let s = bench.apply(bridge)?;
-        if bench.guarded(s, speed_share) {
-            bench.apply(Bridge::Open)?;
+        let Some(s) = bench.guarded(input((b / m).min(n - 1)), speed_share)? else {
             return Ok(false);
-        }
+        };
         if b == 0 {
             store.push(index, input(0).recorded_volts(), s.omega, s.current);
             continue;

@@ -28,6 +28,13 @@ impl Limits {
     /// Shortest time budget [s]: the probe alone needs a few seconds.
     pub const MIN_BUDGET: f32 = 5.0;
 
+    /// One count of a `bits`-bit ADC that reads speed and current over ±1.2 times their
+    /// limits [rad/s, A] (a drive board's tacho and current scales).
+    pub fn adc_counts(&self, bits: u32) -> (f32, f32) {
+        let counts = (1u64 << bits.min(63)) as f32;
+        (2.4 * self.speed / counts, 2.4 * self.current / counts)
+    }
+
     /// Whether every limit is a finite positive number and the budget at least
     /// [`Limits::MIN_BUDGET`] (and at most a day).
     pub fn usable(&self) -> bool {
@@ -53,32 +60,29 @@ mod tests {
     #[test]
     fn defaults_are_usable_and_nonsense_is_not() {
         assert!(Limits::DEFAULT.usable());
-        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
-            assert!(!Limits {
-                voltage: bad,
-                ..Limits::DEFAULT
+        let fields: [fn(&mut Limits) -> &mut f32; 4] = [
+            |l| &mut l.voltage,
+            |l| &mut l.current,
+            |l| &mut l.speed,
+            |l| &mut l.budget,
+        ];
+        for (k, field) in fields.iter().enumerate() {
+            for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+                let mut l = Limits::DEFAULT;
+                *field(&mut l) = bad;
+                assert!(!l.usable(), "field {k} = {bad}");
             }
-            .usable());
-            assert!(!Limits {
-                current: bad,
-                ..Limits::DEFAULT
-            }
-            .usable());
-            assert!(!Limits {
-                speed: bad,
-                ..Limits::DEFAULT
-            }
-            .usable());
-            assert!(!Limits {
-                budget: bad,
-                ..Limits::DEFAULT
-            }
-            .usable());
         }
-        assert!(!Limits {
+        let short = Limits {
             budget: 1.0,
             ..Limits::DEFAULT
-        }
-        .usable());
+        };
+        assert!(!short.usable());
+    }
+
+    #[test]
+    fn a_12_bit_adc_counts_over_2_4_times_the_limits() {
+        let (w, i) = Limits::DEFAULT.adc_counts(12);
+        assert_eq!((w, i), (1200.0 / 4096.0, 96.0 / 4096.0));
     }
 }

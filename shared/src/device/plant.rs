@@ -79,11 +79,6 @@ impl SimulatedPlant {
             current: counted(current, self.resolution.current),
         }
     }
-
-    /// The shaft speed now [rad/s], as the model has it (no sensor).
-    pub fn true_omega(&self) -> f32 {
-        self.sim.omega()
-    }
 }
 
 /// `x` rounded to a whole number of `count`s (unchanged for a zero count).

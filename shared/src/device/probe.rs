@@ -32,7 +32,7 @@ const REST_SECONDS: f32 = 20.0;
 /// current limit).
 const MAX_OFFSET: f32 = 0.1;
 /// The ramp's calibration current (share of the current limit).
-pub const CALIBRATION_CURRENT: f32 = 0.25;
+const CALIBRATION_CURRENT: f32 = 0.25;
 /// Time the ramp takes from 0 to the voltage limit [s].
 const RAMP_SECONDS: f32 = 2.0;
 /// Share of the speed limit at which the mechanical step stops driving.
@@ -41,6 +41,56 @@ pub const SPEED_SHARE: f32 = 0.7;
 const STEP_CURRENT: f32 = 0.6;
 /// Points of a probe's traces.
 const TRACE: usize = 128;
+/// Share of the budget a wait for the shaft to calm down may take.
+pub const QUIET_BUDGET: f32 = 0.05;
+/// Share of the budget the mechanical step may take at most.
+const MECHANICAL_BUDGET: f32 = 0.3;
+/// Share of the budget kept for the experiment's records when the mechanical step starts.
+const RECORDS_BUDGET: f32 = 0.5;
+/// A first-order response's rise at its time constant, 1 - 1/e.
+const RISE_AT_TAU: f32 = 1.0 - 1.0 / core::f32::consts::E;
+
+/// Speed above which the shaft turns: six deviations of the speed reading's noise, at least
+/// 0.2 % of the speed limit (a few counts of a 12-bit tacho).
+fn motion_threshold(sigma_omega: f32, speed_limit: f32) -> f32 {
+    (6.0 * sigma_omega).max(0.002 * speed_limit)
+}
+
+/// What the four stages measured, and the time they took.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probed {
+    /// Stage 1.
+    pub rest: Rest,
+    /// Stage 2.
+    pub ramp: Ramp,
+    /// Stage 3.
+    pub electrical: Electrical,
+    /// Stage 4.
+    pub mechanical: Mechanical,
+    /// Time the probe took [s].
+    pub seconds: f32,
+}
+
+/// The four stages in turn; the current sensor's offset is subtracted from stage 1 on. The
+/// mechanical step takes at most [`MECHANICAL_BUDGET`] of the budget and leaves
+/// [`RECORDS_BUDGET`] of it to the records.
+pub fn probe<D: Drive, L: Link, W: Watchdog>(bench: &mut Bench<D, L, W>) -> Result<Probed, JobEnd> {
+    let budget = bench.limits.budget;
+    let rest = rest_and_offset(bench)?;
+    bench.current_offset = rest.current_offset;
+    let ramp = ramp(bench, &rest)?;
+    let electrical = electrical_step(bench, &rest, &ramp)?;
+    let floor = ramp.breakaway.unwrap_or(0.0);
+    let seconds = (MECHANICAL_BUDGET * budget).min(bench.left() - RECORDS_BUDGET * budget);
+    let mechanical = mechanical_step(bench, &rest, &electrical, floor, seconds)?;
+    Ok(Probed {
+        rest,
+        ramp,
+        electrical,
+        mechanical,
+        seconds: bench.seconds(),
+    })
+}
 
 /// The shaft at rest: the current sensor's offset and the sensors' noise.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,10 +104,9 @@ pub struct Rest {
 }
 
 impl Rest {
-    /// Speed above which the shaft turns: six deviations of its noise, at least 0.2 % of
-    /// the speed limit (a few counts of a 12-bit tacho).
+    /// Speed above which the shaft turns ([`motion_threshold`]).
     pub fn motion(&self, speed_limit: f32) -> f32 {
-        (6.0 * self.sigma_omega).max(0.002 * speed_limit)
+        motion_threshold(self.sigma_omega, speed_limit)
     }
 
     /// Current below which none flows: four deviations of its noise, at least 1 % of the
@@ -68,7 +117,7 @@ impl Rest {
 }
 
 /// Stage 1: at 0 V, wait (up to [`REST_SECONDS`], or a third of the budget) until the speed
-/// reads under the motion threshold ([`Rest::motion`]) and no longer changes from one look to
+/// reads under the motion threshold ([`motion_threshold`]) and no longer changes from one look to
 /// the next; then the current read with the bridge open (no current can flow) is the
 /// sensor's offset (refused as a fault above [`MAX_OFFSET`] of the limit) and the spread of
 /// the readings at rest is their noise.
@@ -93,12 +142,7 @@ pub fn rest_and_offset<D: Drive, L: Link, W: Watchdog>(
         previous = w;
         // Standing: no faster than the motion threshold (a shaft still braking at 0 V draws
         // -Kv ω / Ra, which would be taken for the sensor's offset).
-        let standing = Rest {
-            current_offset: 0.0,
-            sigma_omega: libm::sqrtf(var_w),
-            sigma_current: 0.0,
-        };
-        if w.abs() <= standing.motion(limits.speed) && still {
+        if w.abs() <= motion_threshold(libm::sqrtf(var_w), limits.speed) && still {
             // The offset with the bridge open: no current can flow, whatever the shaft does.
             let mut offset = 0.0f32;
             for _ in 0..REST_WINDOW {
@@ -188,7 +232,7 @@ pub fn ramp<D: Drive, L: Link, W: Watchdog>(
             };
         }
     };
-    quiet(bench, rest, 0.05 * limits.budget)?;
+    quiet(bench, rest, QUIET_BUDGET * limits.budget)?;
     Ok(end)
 }
 
@@ -199,8 +243,6 @@ pub struct Electrical {
     pub ra: f32,
     /// Electrical time constant La/Ra [s].
     pub tau_e: f32,
-    /// Voltage of the step [V].
-    pub volts: f32,
 }
 
 /// Stage 3: a voltage step from standstill, sampled until the current stops rising (no
@@ -225,14 +267,12 @@ pub fn electrical_step<D: Drive, L: Link, W: Watchdog>(
         let (mut rising_from, mut last_rise, mut k) = (0.0f32, 0u32, 0u32);
         let mut guarded = false;
         while k < most {
-            let s = bench.apply(Bridge::Drive(v))?;
-            k += 1;
-            trace.push(s.current);
-            if bench.guarded(s, 1.0) {
-                bench.apply(Bridge::Open)?;
+            let Some(s) = bench.guarded(Bridge::Drive(v), 1.0)? else {
                 guarded = true;
                 break;
-            }
+            };
+            k += 1;
+            trace.push(s.current);
             if s.current > rising_from + (3.0 * rest.sigma_current).max(0.005 * rising_from) {
                 (rising_from, last_rise) = (s.current, k);
             }
@@ -242,19 +282,16 @@ pub fn electrical_step<D: Drive, L: Link, W: Watchdog>(
                 break;
             }
         }
-        quiet(bench, rest, 0.05 * limits.budget)?;
+        quiet(bench, rest, QUIET_BUDGET * limits.budget)?;
         if guarded {
             v /= 3.0;
             continue;
         }
         let plateau = trace.max().max(floor);
-        let k63 = trace
-            .first_reaching((1.0 - 1.0 / core::f32::consts::E) * plateau)
-            .unwrap_or(0.0);
+        let k63 = trace.first_reaching(RISE_AT_TAU * plateau).unwrap_or(0.0);
         return Ok(Electrical {
             ra: v / plateau,
             tau_e: (k63 * bench.dt()).max(0.5 * bench.dt()),
-            volts: v,
         });
     }
     Err(JobEnd::Refused(Refusal::Trip))
@@ -270,12 +307,8 @@ pub struct Mechanical {
     pub tau_m: f32,
     /// Largest speed over the settled (or last) speed (above 1 for an overshoot).
     pub overshoot: f32,
-    /// Voltage of the step [V].
-    pub volts: f32,
     /// Current at the step's end [A] (with the speed settled: the friction's, Kv i = B ω + tc).
     pub current: f32,
-    /// The speed neared its limit before it settled.
-    pub capped: bool,
     /// The speed settled.
     pub settled: bool,
 }
@@ -301,22 +334,19 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
     for _ in 0..3 {
         let mut speed = Trace::<TRACE>::new();
         let mut current = Trace::<TRACE>::new();
-        let (mut k, mut guarded, mut capped, mut settled) = (0u32, false, false, false);
+        let (mut k, mut guarded, mut settled) = (0u32, false, false);
         let (mut top, mut start) = (0.0f32, None);
         while k < most {
-            let s = bench.apply(Bridge::Drive(v))?;
+            let Some(s) = bench.guarded(Bridge::Drive(v), 1.0)? else {
+                guarded = true;
+                break;
+            };
             k += 1;
             let w0 = *start.get_or_insert(s.omega);
             speed.push(s.omega);
             current.push(s.current);
             top = top.max(s.omega);
-            if bench.guarded(s, 1.0) {
-                bench.apply(Bridge::Open)?;
-                guarded = true;
-                break;
-            }
             if s.omega >= SPEED_SHARE * limits.speed {
-                capped = true;
                 break;
             }
             if k >= 64 && k % 32 == 0 {
@@ -330,7 +360,7 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
             }
         }
         if guarded {
-            quiet(bench, rest, 0.05 * limits.budget)?;
+            quiet(bench, rest, QUIET_BUDGET * limits.budget)?;
             v = floor + 0.5 * (v - floor);
             continue;
         }
@@ -342,7 +372,7 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
         let t = k as f32 * bench.dt();
         let w0 = start.unwrap_or(0.0);
         let tau_m = match settled {
-            true => speed.first_reaching(w0 + (1.0 - 1.0 / core::f32::consts::E) * (w_end - w0)),
+            true => speed.first_reaching(w0 + RISE_AT_TAU * (w_end - w0)),
             false => None,
         };
         // J from the mean acceleration under the mean torque (friction left out: J and the
@@ -360,9 +390,7 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
             kv,
             tau_m: tau_m.max(bench.dt()),
             overshoot: (top / w_end).max(1.0),
-            volts: v,
             current: i_end,
-            capped,
             settled,
         });
     }

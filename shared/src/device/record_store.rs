@@ -65,8 +65,9 @@ impl<const N: usize> RecordStore<N> {
         self.with_current = with_current;
     }
 
-    /// Open a new record of step `dt` after the last one; its index.
-    pub(super) fn open(&mut self, dt: f32) -> usize {
+    /// Open a new record of step `dt` (its coast-down from `coast_from`) after the last one;
+    /// its index.
+    pub(super) fn open(&mut self, dt: f32, coast_from: Option<usize>) -> usize {
         let start = match self.count {
             0 => 0,
             c => self.segments[c - 1].start + self.segments[c - 1].len,
@@ -76,7 +77,7 @@ impl<const N: usize> RecordStore<N> {
             start,
             len: 0,
             dt,
-            coast_from: None,
+            coast_from,
         };
         self.count = index + 1;
         index
@@ -137,13 +138,12 @@ mod tests {
     fn two_records_share_the_buffers_one_after_the_other() {
         let mut store = RecordStore::<8>::new();
         store.clear(true);
-        let a = store.open(0.1);
+        let a = store.open(0.1, Some(3));
         for k in 0..5 {
             assert!(store.push(a, k as f32, 1.0, 2.0));
         }
-        store.segments[a].coast_from = Some(3);
         assert_eq!(store.free(), 3);
-        let b = store.open(0.01);
+        let b = store.open(0.01, None);
         for k in 0..3 {
             assert!(store.push(b, -(k as f32), 0.0, 0.0));
         }

@@ -169,7 +169,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 }
                 let s = &mut *self.store;
                 s.clear(with_current);
-                s.open(dt);
+                s.open(dt, None);
                 s.expected = samples as usize;
                 let first = BoardMessage::ChunkOk { next: 0 };
                 hw.link.send(&first);

@@ -310,16 +310,18 @@ fn watched_hardware(drive: Watched) -> Hardware<TestLink, Watched, RamParams, Co
     }
 }
 
+/// The default limits with 5 A allowed.
+const FIVE_AMPS: Limits = Limits {
+    current: 5.0,
+    ..LIMITS
+};
+
 #[test]
 fn a_tight_current_limit_is_kept_and_the_motor_still_commissioned() {
     // The seed motor draws 50 V / 3.412 Ohm = 14.7 A from rest at 50 V: with 5 A allowed the
     // probe finds Ra first and the experiment stays under the limit.
     let mut store = RecordStore::<SAMPLES>::new();
-    let limits = Limits {
-        current: 5.0,
-        ..LIMITS
-    };
-    let mut service = Service::new(&mut store, limits);
+    let mut service = Service::new(&mut store, FIVE_AMPS);
     let mut hw = watched_hardware(Watched::new(seed_plant()));
     let report = service.commission(1, &mut hw).expect("commissioned");
     assert_seed_motor(&report);
@@ -331,11 +333,7 @@ fn a_tight_current_limit_is_kept_and_the_motor_still_commissioned() {
 fn a_break_away_beyond_the_current_limit_is_refused_before_any_trip() {
     // Coulomb friction of 1 N m needs 1 / 0.1604 = 6.2 A to turn the shaft: 5 A cannot.
     let mut store = RecordStore::<SAMPLES>::new();
-    let limits = Limits {
-        current: 5.0,
-        ..LIMITS
-    };
-    let mut service = Service::new(&mut store, limits);
+    let mut service = Service::new(&mut store, FIVE_AMPS);
     let mut hw = watched_hardware(Watched::new(plant_with_friction(1.0)));
     let end = service.commission(1, &mut hw).unwrap_err();
     assert_eq!(end, JobEnd::Refused(Refusal::NoMotion));
@@ -350,7 +348,7 @@ fn a_current_trip_stops_the_drive_and_stores_nothing() {
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
     let mut drive = Watched::new(seed_plant());
-    drive.fault_at = (1.0 / DT) as u32;
+    drive.fault_at = FAULT_AT;
     drive.fault = 100.0;
     let mut hw = watched_hardware(drive);
     let end = JobEnd::Refused(Refusal::Trip);
@@ -363,21 +361,16 @@ fn a_current_trip_stops_the_drive_and_stores_nothing() {
     );
     assert_eq!(hw.params.0, None);
     assert_eq!(hw.drive.plant.stopped, 1);
-    assert_eq!(
-        hw.drive.plant.samples,
-        drive_fault_sample(),
-        "stopped at the trip"
-    );
+    assert_eq!(hw.drive.plant.samples, FAULT_AT, "stopped at the trip");
     assert_eq!(
         hw.link.sent.last(),
         Some(&BoardMessage::Refused(Refusal::Trip))
     );
 }
 
-/// The sample at which [`a_current_trip_stops_the_drive_and_stores_nothing`]'s fault shows.
-fn drive_fault_sample() -> u32 {
-    (1.0 / DT) as u32
-}
+/// The sample at which [`a_current_trip_stops_the_drive_and_stores_nothing`]'s fault shows
+/// (one second in).
+const FAULT_AT: u32 = (1.0 / DT) as u32;
 
 #[test]
 fn a_motor_that_never_comes_to_rest_is_not_driven() {
