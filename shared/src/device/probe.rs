@@ -155,7 +155,7 @@ pub fn rest_and_offset<D: Drive, L: Link, W: Watchdog>(
             return Ok(Rest {
                 current_offset: offset,
                 sigma_omega: libm::sqrtf(var_w),
-                sigma_current: libm::sqrtf((var_i + i * i - offset * offset).max(var_i)),
+                sigma_current: libm::sqrtf(var_i),
             });
         }
     }
