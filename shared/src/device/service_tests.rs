@@ -191,6 +191,20 @@ fn a_motor_without_coulomb_friction_commissions_with_none() {
     );
 }
 
+/// Power-up finds nothing stored and commissioning is refused for `why`: nothing stored, the
+/// refusal the last message sent.
+fn assert_refused_at_boot<D: Drive>(
+    service: &mut Service<'_, SAMPLES>,
+    hw: &mut Hardware<TestLink, D, RamParams, CountingWatchdog>,
+    why: Refusal,
+) {
+    let end = JobEnd::Refused(why);
+    let found = NotStored::Empty;
+    assert_eq!(service.boot(hw), Boot::NotCommissioned { end, found });
+    assert_eq!(hw.params.0, None);
+    assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Refused(why)));
+}
+
 /// The plan a commissioning sent.
 fn plan_of(sent: &[BoardMessage]) -> crate::wire::protocol::Plan {
     let plan = sent.iter().find_map(|m| match m {
@@ -226,20 +240,8 @@ fn a_current_sensor_offset_is_measured_and_removed_and_a_gross_one_refused() {
     let mut plant = seed_plant();
     plant.offset.current = 5.0;
     let mut hw = hardware(plant);
-    let end = JobEnd::Refused(Refusal::SensorFault);
-    assert_eq!(
-        service.boot(&mut hw),
-        Boot::NotCommissioned {
-            end,
-            found: NotStored::Empty
-        }
-    );
-    assert_eq!(hw.params.0, None);
+    assert_refused_at_boot(&mut service, &mut hw, Refusal::SensorFault);
     assert_eq!(hw.drive.stopped, 1);
-    assert_eq!(
-        hw.link.sent.last(),
-        Some(&BoardMessage::Refused(Refusal::SensorFault))
-    );
     assert!(!hw
         .link
         .sent
@@ -343,21 +345,9 @@ fn a_current_trip_stops_the_drive_and_stores_nothing() {
     drive.fault_at = FAULT_AT;
     drive.fault = 100.0;
     let mut hw = watched_hardware(drive);
-    let end = JobEnd::Refused(Refusal::Trip);
-    assert_eq!(
-        service.boot(&mut hw),
-        Boot::NotCommissioned {
-            end,
-            found: NotStored::Empty
-        }
-    );
-    assert_eq!(hw.params.0, None);
+    assert_refused_at_boot(&mut service, &mut hw, Refusal::Trip);
     assert_eq!(hw.drive.plant.stopped, 1);
     assert_eq!(hw.drive.plant.samples, FAULT_AT, "stopped at the trip");
-    assert_eq!(
-        hw.link.sent.last(),
-        Some(&BoardMessage::Refused(Refusal::Trip))
-    );
 }
 
 /// The sample at which [`a_current_trip_stops_the_drive_and_stores_nothing`]'s fault shows
@@ -371,15 +361,7 @@ fn a_motor_that_never_comes_to_rest_is_not_driven() {
     let mut plant = seed_plant();
     plant.offset.omega = 50.0;
     let mut hw = hardware(plant);
-    let end = JobEnd::Refused(Refusal::NotAtRest);
-    assert_eq!(
-        service.boot(&mut hw),
-        Boot::NotCommissioned {
-            end,
-            found: NotStored::Empty
-        }
-    );
-    assert_eq!(hw.params.0, None);
+    assert_refused_at_boot(&mut service, &mut hw, Refusal::NotAtRest);
 }
 
 #[test]
