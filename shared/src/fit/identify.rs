@@ -346,7 +346,7 @@ struct Searched {
 /// The pipeline of [`identify_from`]: refinement of the start, the search when it is
 /// called for, then the escalation's wider searches. A frame of its own (the run's state),
 /// gone before [`conclude`] builds the result: on a board, only one of the two is on the
-/// stack under the refinement's (README, footprint).
+/// stack under the refinement's (docs/measurements/footprint.md).
 #[inline(never)]
 fn pipeline(
     records: &[Record],

@@ -283,7 +283,7 @@ impl<'r, 'a> Objective<'r, 'a> {
     /// coordinates: forward (dim + 1 evaluations) or central (2 dim + 1), with the initial
     /// speeds projected out (variable projection, see [`RecordSums`]). Written into `out`
     /// in place, so that no second copy of the equations sits on a refinement's stack (the
-    /// board's stack budget, README). False when the point cannot be simulated or a sum is
+    /// board's stack budget, docs/measurements/footprint.md). False when the point cannot be simulated or a sum is
     /// not finite: `out.cost` and `out.simulations` are then as they were, its sums are not
     /// (a caller that goes on uses the cost only, as least squares does when it stops).
     pub fn normal_equations(

@@ -81,7 +81,7 @@ pub fn levenberg_marquardt(
     // digits of an ill-conditioned fit are not lost to the O(h) error of a forward-difference
     // gradient. An accepted step that gains less than `rel_tol` has converged: neither its
     // normal equations nor a central phase follow (together they cost half of the board
-    // pipeline's evaluations and changed no result measurably: README, benchmark).
+    // pipeline's evaluations and changed no result measurably: docs/measurements/benchmark.md).
     let mut central = false;
     let mut ne = NormalEquations::EMPTY;
     if !objective.normal_equations(space, &u[..dim], cfg.h, central, &mut ne) {
