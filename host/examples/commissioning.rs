@@ -30,6 +30,7 @@ fn main() {
     let (mut trips, mut like, mut like_ok, mut all_ok) = (0, 0, 0, 0);
     let (mut pinned, mut within) = (0, 0);
     let mut seconds = Vec::new();
+    let mut evaluations = Vec::new();
     for m in 0..motors {
         let motor = table_one_motor(m as u64 + 1);
         let [ra, la, j, b, kv] = ParamId::MOTOR.map(|p| motor.get(p));
@@ -60,6 +61,7 @@ fn main() {
                 continue;
             }
         };
+        evaluations.push(report.evaluations);
         let mut ok = true;
         for &id in ParamId::ALL[..=ParamId::Tc.index()].iter() {
             let e = report.get(id.index() as u8).expect("six estimates");
@@ -81,6 +83,8 @@ fn main() {
         }
     }
     seconds.sort_by(f32::total_cmp);
+    evaluations.sort();
+    let at = |q: f64| evaluations[((evaluations.len() - 1) as f64 * q) as usize];
     let pct = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
     println!(
         "motors {motors} (look like motors {like}), drive sampled at {rate} Hz, limits {limits:?}"
@@ -94,6 +98,12 @@ fn main() {
     println!(
         "pinned within 3 reported std: {:.1} % of {pinned}",
         pct(within, pinned)
+    );
+    println!(
+        "fit evaluations: median {}, 90 % {}, most {}",
+        at(0.5),
+        at(0.9),
+        at(1.0)
     );
     println!(
         "experiment: median {:.1} s, longest {:.1} s",

@@ -5,8 +5,9 @@
 //!   `-icount shift=0` (1 ns of virtual time per instruction; SysTick at 168 MHz counts 0.168
 //!   per instruction), `motor-id board identify` on a simulated record (steps, 100 Hz, 20 s,
 //!   with current) with the host's default pipeline and with the board's, and a
-//!   `motor-id board commission` (the board's own 2,000-sample experiment with its coast-down,
-//!   then the board pipeline with Coulomb friction free); the firmware reports the SysTick
+//!   `motor-id board commission` (the board's probe and its two designed records, the slow
+//!   one with a coast-down, then the board pipeline on both with Coulomb friction free); the
+//!   firmware reports the SysTick
 //!   ticks from the request to the result, and for a commissioning also from the drive's
 //!   stop at the end of the experiment (the identification alone).
 //! - The worst case of the board's stack: `board identify` of a speed-only record whose
@@ -140,10 +141,10 @@ fn main() {
         "| instructions, `board identify --pipeline board` (the board's pipeline, five motor parameters, {board_evals} evaluations) | {board_m:.1} M | <= 40 M |"
     );
     println!(
-        "| instructions, the identification within `board commission` (board pipeline, five motor parameters and `tc`, 2,000 samples with a coast-down, {commission_evals} evaluations) | {commission_fit_m:.1} M | <= 40 M |"
+        "| instructions, the identification within `board commission` (board pipeline, five motor parameters and `tc`, the slow and the fast record, {commission_evals} evaluations) | {commission_fit_m:.1} M | <= 40 M |"
     );
     println!(
-        "| instructions, `board commission` as a whole (safety checks, the 2,000-sample experiment incl. QEMU's simulated plant, identification) | {commission_m:.1} M | (informative) |"
+        "| instructions, `board commission` as a whole (the probe and the records at the drive's 2 kHz incl. QEMU's simulated plant, identification) | {commission_m:.1} M | (informative) |"
     );
     println!(
         "| instructions, `board identify` (the host's default pipeline, {default_evals} evaluations) | {default_m:.1} M | (informative) |"

@@ -52,6 +52,13 @@ fn corners_of_the_box_commission_within_three_percent_on_the_reference_plant() {
             kv: 1.0,
         },
         Motor {
+            ra: 10.0,
+            la: 0.5,
+            j: 0.05,
+            b: 0.05,
+            kv: 1.5,
+        },
+        Motor {
             ra: 2.0,
             la: 0.05,
             j: 1.0,

@@ -8,8 +8,8 @@
 //! - The **fast record** covers the electrical mode: [`FAST_STEP`] samples per La/Ra, a step
 //!   of the voltage from 0 V and back, so that seed Eq. 1 pins Ra, La and Kv.
 //!
-//! Each record sample is the mean of an odd number of the drive's samples centred on its
-//! instant ([`crate::device::experiment`]). The voltage keeps the start current under
+//! Each record sample is the drive's reading at its instant, the drive sampling a whole
+//! number of times per record step ([`crate::device::experiment`]). The voltage keeps the start current under
 //! [`CURRENT_SHARE`] of the current limit and the steady speed under
 //! [`crate::device::probe::SPEED_SHARE`] of the speed limit. In the steady state (seed
 //! Eq. 1 and 4) ω = (Kv V - Ra tc) / (Kv² + Ra B) is affine in V, from 0 at the break-away
@@ -36,8 +36,8 @@ const FAST_BUDGET: f32 = 0.15;
 /// One record of the experiment.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RecordPlan {
-    /// Drive samples per record sample (odd).
-    pub average: u32,
+    /// Drive samples per record sample.
+    pub step: u32,
     /// Record samples.
     pub samples: usize,
 }
@@ -45,12 +45,12 @@ pub struct RecordPlan {
 impl RecordPlan {
     /// The record's step for a drive sampled every `dt` [s].
     pub fn dt(&self, dt: f32) -> f32 {
-        self.average as f32 * dt
+        self.step as f32 * dt
     }
 
     /// Drive samples the record takes.
     pub fn drive_samples(&self) -> u32 {
-        self.samples as u32 * self.average
+        self.samples as u32 * self.step
     }
 }
 
@@ -65,17 +65,13 @@ pub struct Design {
     pub fast: RecordPlan,
 }
 
-/// The largest odd number not above `x`, at least 1 (a record never outlasts its span).
-fn odd(x: f32) -> u32 {
-    let m = if x.is_finite() && x > 1.0 {
+/// Drive samples per record sample for a record step of `x` drive samples: its whole part,
+/// at least 1 (a record never outlasts its span).
+fn whole(x: f32) -> u32 {
+    if x.is_finite() && x > 1.0 {
         x.min(1e6) as u32
     } else {
         1
-    };
-    if m % 2 == 1 {
-        m
-    } else {
-        m - 1
     }
 }
 
@@ -111,7 +107,7 @@ pub fn design(
     let fast_span =
         (electrical.tau_e / FAST_STEP * fast_samples as f32).min(FAST_BUDGET * limits.budget);
     let fast = RecordPlan {
-        average: odd(fast_span / (fast_samples as f32 * dt)),
+        step: whole(fast_span / (fast_samples as f32 * dt)),
         samples: fast_samples,
     };
     let left = limits.budget
@@ -120,14 +116,14 @@ pub fn design(
         - QUIET_BUDGET * limits.budget;
     let slow_span = (SLOW_SPAN * mechanical.tau_m).min(left).max(0.0);
     let slow_capacity = capacity - fast_samples;
-    let average = odd(slow_span / (slow_capacity as f32 * dt));
-    let samples = match average {
+    let step = whole(slow_span / (slow_capacity as f32 * dt));
+    let samples = match step {
         1 => ((slow_span / dt) as usize).clamp(16, slow_capacity),
         _ => slow_capacity,
     };
     Ok(Design {
         volts,
-        slow: RecordPlan { average, samples },
+        slow: RecordPlan { step, samples },
         fast,
     })
 }
@@ -172,7 +168,6 @@ mod tests {
             let p = probe(3.4, tau_e, 0.16, tau_m);
             let d = design(&limits, DT, 2000, &p).unwrap();
             assert!(d.slow.samples + d.fast.samples <= 2000);
-            assert!(d.slow.average % 2 == 1 && d.fast.average % 2 == 1);
             let seconds = 3.0
                 + (d.slow.drive_samples() + d.fast.drive_samples()) as f32 * DT
                 + QUIET_BUDGET * limits.budget;

@@ -1,12 +1,15 @@
 //! Recording the designed experiment ([`crate::device::design`]): the bridge's inputs of the
-//! slow and the fast record, and the averaging of the drive's samples into record samples.
+//! slow and the fast record, and the drive's samples taken into record samples.
 //!
 //! The model reads record sample k at the instant k·dt and holds the voltage of sample k over
-//! [k·dt, (k+1)·dt) (zero-order hold). The drive samples faster: a record sample is the mean
-//! of the `m` (odd) drive samples centred on its instant, which is the reading at that
-//! instant up to the signal's curvature over the window (exact for a straight line), with
-//! its noise divided by √m; the first sample is the single reading at the record's start
-//! (nothing of the record has acted yet).
+//! [k·dt, (k+1)·dt) (zero-order hold). The drive samples `m` times faster and holds the same
+//! voltage over those `m` samples; record sample k is the drive's reading at the instant k·dt,
+//! exactly what the model simulates. Averaged readings would lower the noise by √m but add a
+//! bias of the signal's curvature over the window, which the fit's noise floor (σ/√m) then
+//! exposes: over the commissioning benchmark's 1,000 motors the fit took a median of 1,867
+//! evaluations on records averaged over 9 drive samples, against 52 on instantaneous ones,
+//! with all six parameters within 3 % for 60.3 % of the motors against 64.5 %
+//! (`docs/measurements/commissioning.md`).
 
 use crate::device::bench::Bench;
 use crate::device::design::RecordPlan;
@@ -48,7 +51,7 @@ pub fn fast_input(k: usize, n: usize, volts: f32) -> Bridge {
 }
 
 /// Record one record into `store` after those it holds: `plan.samples` samples of
-/// `plan.average` drive samples each, the bridge as `input(k)` over record sample k, its
+/// `plan.step` drive samples each, the bridge as `input(k)` over record sample k, its
 /// coast-down from `coast_from`. `Ok(false)` when a reading passed the bench's guard
 /// ([`Bench::guarded`]): the bridge is then open and the record incomplete.
 pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
@@ -64,26 +67,14 @@ pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     if n == 0 {
         return Ok(true);
     }
-    let m = plan.average as usize;
-    let half = (m - 1) / 2;
-    let (mut sum_w, mut sum_i) = (0.0f32, 0.0f32);
-    for b in 0..=(n - 1) * m + half {
-        let Some(s) = bench.guarded(input((b / m).min(n - 1)), speed_share)? else {
+    let m = plan.step as usize;
+    for b in 0..=(n - 1) * m {
+        let k = b / m;
+        let Some(s) = bench.guarded(input(k), speed_share)? else {
             return Ok(false);
         };
-        if b == 0 {
-            store.push(index, input(0).recorded_volts(), s.omega, s.current);
-            continue;
-        }
-        let k = (b + half) / m;
-        if k == 0 {
-            continue;
-        }
-        (sum_w, sum_i) = (sum_w + s.omega, sum_i + s.current);
-        if b == k * m + half {
-            let mean = |sum: f32| sum / m as f32;
-            store.push(index, input(k).recorded_volts(), mean(sum_w), mean(sum_i));
-            (sum_w, sum_i) = (0.0, 0.0);
+        if b % m == 0 {
+            store.push(index, input(k).recorded_volts(), s.omega, s.current);
         }
     }
     Ok(true)

@@ -14,6 +14,9 @@
 //!    the stage's share of the budget ends: Kv from seed Eq. 1 in the steady state,
 //!    Kv = (V - Ra i) / ω, and the mechanical time scale.
 //!
+//! Each stage has a frame of its own (`#[inline(never)]`): only one stage's traces are on
+//! the board's stack at a time.
+//!
 //! The estimates are rough (tens of per cent); they size the experiment
 //! ([`crate::device::design`]). A motor that cannot be commissioned within the limits is
 //! refused here with its reason, before anything trips.
@@ -121,6 +124,7 @@ impl Rest {
 /// the next; then the current read with the bridge open (no current can flow) is the
 /// sensor's offset (refused as a fault above [`MAX_OFFSET`] of the limit) and the spread of
 /// the readings at rest is their noise.
+#[inline(never)]
 pub fn rest_and_offset<D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
 ) -> Result<Rest, JobEnd> {
@@ -203,6 +207,7 @@ pub struct Ramp {
 /// Stage 2: the voltage raised from 0 to the limit over [`RAMP_SECONDS`] (a twentieth of the
 /// budget at most), until the shaft turns, the current reaches [`CALIBRATION_CURRENT`] of its
 /// limit, or the voltage its limit; then 0 V until the current is gone.
+#[inline(never)]
 pub fn ramp<D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
     rest: &Rest,
@@ -250,6 +255,7 @@ pub struct Electrical {
 /// 63 % of it La/Ra. The step's voltage gives about a tenth of the current limit by the
 /// ramp's end (at least the ramp's end voltage); a current beyond [`crate::device::bench::GUARD`]
 /// of its limit opens the bridge and the step is tried again at a third of the voltage.
+#[inline(never)]
 pub fn electrical_step<D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
     rest: &Rest,
@@ -319,6 +325,7 @@ pub struct Mechanical {
 /// its limit, or `seconds` pass. A shaft that never turns is refused
 /// ([`Refusal::NoMotion`]). The bridge stays driven at the step's voltage at its end: the
 /// experiment's slow record takes over from that state.
+#[inline(never)]
 pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
     rest: &Rest,
