@@ -95,68 +95,16 @@ fn adc_bits(text: &str) -> Result<u32, String> {
 #[derive(Serialize, Debug)]
 struct CommissionReport {
     /// The limits it worked within.
-    limits: LimitsReport,
-    /// What the probe measured and the experiment designed from it (null: refused before).
-    plan: Option<PlanReport>,
+    limits: Limits,
+    /// What the probe measured and the experiment designed from it, as the board sends it
+    /// (null: refused before).
+    plan: Option<Plan>,
     /// Time the experiment took on the drive [s].
     experiment_seconds: Num,
     /// The board's report of the motor (null: not commissioned).
     motor: Option<BoardReport>,
     /// Why it was not commissioned (null: commissioned).
     refusal: Option<String>,
-}
-
-#[derive(Serialize, Debug)]
-struct LimitsReport {
-    voltage: Num,
-    current: Num,
-    speed: Num,
-    budget: Num,
-}
-
-#[derive(Serialize, Debug)]
-struct PlanReport {
-    current_offset: Num,
-    breakaway_volts: Num,
-    ra: Num,
-    tau_e: Num,
-    kv: Num,
-    tau_m: Num,
-    volts: Num,
-    slow: RecordReport,
-    fast: RecordReport,
-    probe_seconds: Num,
-    planned_seconds: Num,
-}
-
-#[derive(Serialize, Debug)]
-struct RecordReport {
-    dt: Num,
-    samples: u16,
-}
-
-impl PlanReport {
-    fn new(p: &Plan) -> PlanReport {
-        PlanReport {
-            current_offset: Num(p.current_offset),
-            breakaway_volts: Num(p.breakaway_volts),
-            ra: Num(p.ra),
-            tau_e: Num(p.tau_e),
-            kv: Num(p.kv),
-            tau_m: Num(p.tau_m),
-            volts: Num(p.volts),
-            slow: RecordReport {
-                dt: Num(p.slow_dt),
-                samples: p.slow_samples,
-            },
-            fast: RecordReport {
-                dt: Num(p.fast_dt),
-                samples: p.fast_samples,
-            },
-            probe_seconds: Num(p.probe_seconds),
-            planned_seconds: Num(p.planned_seconds),
-        }
-    }
 }
 
 /// A board record as a record CSV.
@@ -224,13 +172,8 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         Err(JobEnd::Refused(r)) => (None, Some(r.to_string())),
     };
     let report = CommissionReport {
-        limits: LimitsReport {
-            voltage: Num(limits.voltage),
-            current: Num(limits.current),
-            speed: Num(limits.speed),
-            budget: Num(limits.budget),
-        },
-        plan: outcome.plan.as_ref().map(PlanReport::new),
+        limits,
+        plan: outcome.plan,
         experiment_seconds: Num(outcome.seconds),
         motor,
         refusal,
@@ -244,13 +187,12 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
             owned(r, path.clone()).write(&path)?;
         }
     }
-    match (&report.motor, &report.refusal) {
-        (Some(m), _) => {
-            print!("{}", m.text());
-            println!("experiment: {:.1} s", outcome.seconds);
-            Ok(())
-        }
-        (None, Some(why)) => bail!("not commissioned: {why}"),
-        (None, None) => unreachable!("a report or a refusal"),
+    if let Some(why) = &report.refusal {
+        bail!("not commissioned: {why}");
     }
+    if let Some(m) = &report.motor {
+        print!("{}", m.text());
+        println!("experiment: {:.1} s", outcome.seconds);
+    }
+    Ok(())
 }

@@ -1,8 +1,10 @@
 //! The drive's limits that commissioning works within: the largest voltage it applies, the
 //! current and speed at which it trips, and the time the whole experiment may take.
 
+use serde::{Deserialize, Serialize};
+
 /// Limits of self-commissioning.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Limits {
     /// Largest armature voltage applied [V].

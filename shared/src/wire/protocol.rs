@@ -124,7 +124,8 @@ pub struct Plan {
     pub slow_samples: u16,
     /// Time the probe took [s].
     pub probe_seconds: f32,
-    /// Time of the whole commissioning experiment, probe included, as planned [s].
+    /// Time of the probe and the two records as planned [s] (the wait for the shaft to calm
+    /// between the records, at most 5 % of the budget, not counted).
     pub planned_seconds: f32,
 }
 
