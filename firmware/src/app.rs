@@ -5,17 +5,19 @@
 
 use motor_id_shared::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
 use motor_id_shared::device::job::JobEnd;
-use motor_id_shared::device::limits::Limits;
 use motor_id_shared::device::record_store::RecordStore;
 use motor_id_shared::device::service::{Boot, Service};
+use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::{MotorReport, NotStored};
 use motor_id_shared::wire::stored::STORE_VERSION;
 
 /// Longest record the board holds (2,000 samples of voltage, speed and current: 24 KB).
 pub const MAX_SAMPLES: usize = 2000;
 
-/// Limits of the commissioning experiment: the conservative defaults (50 V, 40 A,
-/// 500 rad/s, 60 s; the probe sizes the experiment within them for any motor).
+/// Limits of the commissioning experiment until the host sets others (`motor-id board
+/// config`, stored beside the parameters and read at every power-up): the conservative
+/// defaults (50 V, 40 A, 500 rad/s, 60 s; the probe sizes the experiment within them for
+/// any motor).
 pub const LIMITS: Limits = Limits::DEFAULT;
 
 /// What the status LED shows.

@@ -7,11 +7,11 @@
 //! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ] [--verbose]`
 
 use motor_id_shared::device::job::JobEnd;
-use motor_id_shared::device::limits::Limits;
 use motor_id_shared::device::plant::SimulatedPlant;
 use motor_id_shared::device::virtual_board::commission;
 use motor_id_shared::model::synth::table_one_motor;
 use motor_id_shared::param_id::ParamId;
+use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::Refusal;
 use std::collections::BTreeMap;
 

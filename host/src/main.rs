@@ -1,12 +1,14 @@
 //! `motor-id`: identify DC motor parameters (seed paper: FFO on the speed RMSE, Eq. 7) from
 //! recorded or simulated data, with an honest identifiability report.
 
+mod board_records;
 mod cli;
 mod commands;
 mod comparison;
 mod csvio;
 mod fit;
 mod fit_plot;
+mod limits_args;
 mod output;
 mod plot;
 mod progress;

@@ -118,6 +118,28 @@ pub const SEED_START: &[&str] = &[
     "0.2",
 ];
 
+/// The seed paper's motor with Coulomb friction of 0.05 N m, by parameter name: the QEMU
+/// build's default plant and `commission --sim`'s default with `coulomb_friction:tc=0.05`.
+pub const SEED_WITH_FRICTION: [(&str, f32); 6] = [
+    ("ra", 3.412),
+    ("la", 0.0573),
+    ("j", 0.0424),
+    ("b", 0.00267),
+    ("kv", 0.1604),
+    ("tc", 0.05),
+];
+
+/// Every parameter of `motor` within 3 % in the report `r` (its `params`).
+pub fn assert_within_3_percent(r: &Value, motor: &[(&str, f32)]) {
+    for (name, truth) in motor {
+        let got = param(r, name);
+        assert!(
+            (got / *truth as f64 - 1.0).abs() < 0.03,
+            "{name}: {got} vs {truth}: {r}"
+        );
+    }
+}
+
 /// A record for the board: 2,000 samples of the seed's motor (steps, 100 Hz, 20 s) with
 /// speed and current noise, written to `dir/board-record.csv`.
 pub fn board_record(dir: &Path) -> PathBuf {
@@ -299,6 +321,17 @@ impl Qemu {
 
     /// Start the firmware with extra QEMU arguments (e.g. `-icount shift=0`).
     pub fn start_with(extra: &[&str]) -> Qemu {
+        Qemu::start_full(&[], extra)
+    }
+
+    /// Start the firmware with its simulated motor's parameters `plant` (`("j", 0.001)`, ...)
+    /// in place of the default's, given on QEMU's semihosting command line (the QEMU build's
+    /// `plant_args`): one binary, any motor.
+    pub fn with_plant(plant: &[(&str, f32)]) -> Qemu {
+        Qemu::start_full(plant, &[])
+    }
+
+    fn start_full(plant: &[(&str, f32)], extra: &[&str]) -> Qemu {
         use std::io::BufRead;
         let elf = firmware_elf();
         let mut child = Command::new("qemu-system-arm")
@@ -311,7 +344,8 @@ impl Qemu {
                 "-serial",
                 "pty",
             ])
-            .args(["-semihosting-config", "enable=on,target=native"])
+            .arg("-semihosting-config")
+            .arg(semihosting_config(plant))
             .args(extra)
             .arg("-kernel")
             .arg(elf)
@@ -350,6 +384,16 @@ impl Qemu {
             stderr: rx,
         }
     }
+}
+
+/// QEMU's semihosting configuration with `plant` as the command line's arguments (after the
+/// program's name), one `name=0x<bits of the f32>` each (what the QEMU build reads).
+fn semihosting_config(plant: &[(&str, f32)]) -> String {
+    let mut config = String::from("enable=on,target=native,arg=motor-id-firmware");
+    for (name, value) in plant {
+        config += &format!(",arg={name}={:#010x}", value.to_bits());
+    }
+    config
 }
 
 impl Qemu {

@@ -3,13 +3,13 @@
 //! (its own RK4 and friction), with 12-bit readings; and `motor-id commission --sim`.
 
 use motor_id_shared::device::job::JobEnd;
-use motor_id_shared::device::limits::Limits;
 use motor_id_shared::device::virtual_board::commission;
 use motor_id_shared::param_id::ParamId;
+use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::Refusal;
 use motor_id_tests::reference_plant::drive::ReferenceDrive;
 use motor_id_tests::reference_plant::{Effects, Motor};
-use motor_id_tests::{json, param, run, run_err, run_ok, s};
+use motor_id_tests::{assert_within_3_percent, json, run, run_err, run_ok, s, SEED_WITH_FRICTION};
 
 /// The drive's sample rate in these tests [Hz].
 const RATE: f64 = 5_000.0;
@@ -130,18 +130,7 @@ fn commission_sim_reports_the_motor_its_plan_and_its_records() {
         "-q",
     ]);
     let r = json(&report);
-    let motor = &r["motor"];
-    for (name, t) in [
-        ("ra", 3.412),
-        ("la", 0.0573),
-        ("j", 0.0424),
-        ("b", 0.00267),
-        ("kv", 0.1604),
-        ("tc", 0.05),
-    ] {
-        let got = param(motor, name);
-        assert!((got / t - 1.0).abs() < 0.03, "{name}: {got} vs {t}");
-    }
+    assert_within_3_percent(&r["motor"], &SEED_WITH_FRICTION);
     assert!(r["experiment_seconds"].as_f64().unwrap() <= 60.0, "{r}");
     assert!(r["plan"]["ra"].as_f64().unwrap() > 0.0, "{r}");
     // The board's records, as record CSVs that identify reads.

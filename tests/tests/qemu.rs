@@ -1,12 +1,13 @@
 //! The firmware in QEMU (netduinoplus2), driven through the host exactly as a board:
 //! `motor-id board --port <pty> ...`, plus raw frames for abort and link faults.
 
-use motor_id_shared::device::plant::DEMO_FRICTION;
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
     BoardMessage, HostMessage, PipelineName, Refusal, CHUNK, PROTOCOL_VERSION,
 };
-use motor_id_tests::{board_record, json, run, run_err, run_ok, s, Qemu};
+use motor_id_tests::{
+    assert_within_3_percent, board_record, json, run, run_err, run_ok, s, Qemu, SEED_WITH_FRICTION,
+};
 use std::io::{Read, Write};
 use std::time::Duration;
 
@@ -59,21 +60,10 @@ fn board_identify_is_bit_identical_to_host_identify() {
     run_ok(&q.board_args(&["hello"]));
 }
 
-/// The QEMU build's plant is the seed paper's motor with Coulomb friction
-/// ([`DEMO_FRICTION`]), which commissioning identifies from its coast-down.
+/// The QEMU build's default plant is the seed paper's motor with Coulomb friction
+/// ([`SEED_WITH_FRICTION`]), which commissioning identifies from its coast-down.
 fn assert_seed_motor(r: &serde_json::Value) {
-    let truth = [
-        ("ra", 3.412),
-        ("la", 0.0573),
-        ("j", 0.0424),
-        ("b", 0.00267),
-        ("kv", 0.1604),
-        ("tc", DEMO_FRICTION as f64),
-    ];
-    for (name, t) in truth {
-        let got = r["params"][name].as_f64().unwrap();
-        assert!((got / t - 1.0).abs() < 0.03, "{name}: {got} vs {t}");
-    }
+    assert_within_3_percent(r, &SEED_WITH_FRICTION);
 }
 
 #[test]
@@ -206,6 +196,7 @@ fn abort_mid_identification_and_the_board_answers_again() {
         dt: 0.01,
         samples: rows.len() as u32,
         with_current: true,
+        coast_from: None,
     });
     assert_eq!(
         raw.receive(Duration::from_secs(5)),

@@ -1,11 +1,13 @@
 //! The QEMU netduinoplus2 board layer: USART1 (no clock or pin set-up: QEMU needs none, and
-//! its RCC would make a HAL's clock set-up spin), the seed paper's motor simulated behind the
+//! its RCC would make a HAL's clock set-up spin), a motor simulated behind the
 //! [`Drive`](motor_id_shared::device::hardware::Drive) trait that the board's PWM and ADC implement
-//! (with Coulomb friction, which commissioning identifies),
+//! (the seed paper's with Coulomb friction, which commissioning identifies, unless QEMU's
+//! command line gives another: [`plant_args::plant_motor`]),
 //! parameters in RAM (QEMU keeps no flash writes), no watchdog (QEMU has no IWDG), defmt
 //! over semihosting, and a meter of instructions and stack for the footprint report.
 
 mod meter;
+mod plant_args;
 mod usart;
 
 use crate::app::{State, StatusLed};
@@ -66,8 +68,9 @@ pub fn init() -> (QemuHardware, LogLed) {
     let core = cortex_m::Peripherals::take().expect("init runs once");
     meter::start(core.SYST);
     let link = meter::MeteredLink::new(SerialLink::new(usart::Usart1::new()));
-    let drive = SimulatedPlant::new(&demo_motor(), DT, NOISE.0, NOISE.1, NOISE_SEED)
-        .expect("the seed motor simulates");
+    let motor = plant_args::plant_motor(demo_motor());
+    let drive = SimulatedPlant::new(&motor, DT, NOISE.0, NOISE.1, NOISE_SEED)
+        .expect("the plant's motor was validated");
     let hw = Hardware {
         link,
         drive: meter::MeteredDrive(drive),

@@ -3,7 +3,8 @@
 //! simulated motor, so that a motor is tried before a board is flashed. It writes the
 //! board's report, the plan, and the records the board recorded.
 
-use crate::csvio::OwnedRecord;
+use crate::board_records::{check_out_dir, write_records};
+use crate::limits_args::{within, LimitArgs};
 use crate::output::write_json;
 use crate::progress::{BarState, FitProgress};
 use crate::report::board::{plan_text, BoardReport};
@@ -12,9 +13,9 @@ use crate::spec::{parse_effect, parse_motor, EffectSpec};
 use anyhow::{bail, Result};
 use clap::Args;
 use motor_id_shared::device::job::JobEnd;
-use motor_id_shared::device::limits::Limits;
 use motor_id_shared::device::plant::SimulatedPlant;
-use motor_id_shared::device::virtual_board::{commission, BoardRecord};
+use motor_id_shared::device::virtual_board::commission;
+use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::{BoardMessage, Plan};
 use motor_id_shared::ModelParams;
 use serde::Serialize;
@@ -34,18 +35,8 @@ pub struct CommissionArgs {
     /// Add an effect to the simulated motor, e.g. `coulomb_friction:tc=0.05` (repeatable).
     #[arg(long, value_name = "NAME:key=val,...", value_parser = parse_effect)]
     pub effect: Vec<EffectSpec>,
-    /// Largest armature voltage the drive applies [V].
-    #[arg(long, default_value_t = Limits::DEFAULT.voltage, value_parser = within(f32::MIN_POSITIVE, 1e6))]
-    pub voltage: f32,
-    /// Current limit (trip) [A].
-    #[arg(long, default_value_t = Limits::DEFAULT.current, value_parser = within(f32::MIN_POSITIVE, 1e6))]
-    pub current: f32,
-    /// Speed limit (trip) [rad/s].
-    #[arg(long, default_value_t = Limits::DEFAULT.speed, value_parser = within(f32::MIN_POSITIVE, 1e6))]
-    pub speed: f32,
-    /// Time budget of the experiment, probe included [s] (5 to 86,400).
-    #[arg(long, default_value_t = Limits::DEFAULT.budget, value_parser = within(Limits::MIN_BUDGET, 86_400.0))]
-    pub budget: f32,
+    #[command(flatten)]
+    pub limits: LimitArgs,
     /// The drive's sample rate (ADC and PWM) [Hz] (100 to 100,000).
     #[arg(long, default_value_t = 20_000.0, value_parser = within(100.0, 100_000.0))]
     pub rate: f32,
@@ -73,17 +64,6 @@ pub struct CommissionArgs {
     pub quiet: bool,
 }
 
-/// A value parser for a number from `lo` to `hi` (both included; `lo` may be
-/// `f32::MIN_POSITIVE` for "above 0"): NaN, infinities and anything outside are refused.
-fn within(lo: f32, hi: f32) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync {
-    move |text: &str| match text.parse::<f32>() {
-        Ok(x) if (lo..=hi).contains(&x) => Ok(x),
-        Ok(_) if lo == f32::MIN_POSITIVE => Err(format!("must be above 0 and at most {hi}")),
-        Ok(_) => Err(format!("must be from {lo} to {hi}")),
-        Err(_) => Err(format!("'{text}' is not a number")),
-    }
-}
-
 fn adc_bits(text: &str) -> Result<u32, String> {
     match text.parse::<u32>() {
         Ok(b) if b == 0 || (4..=24).contains(&b) => Ok(b),
@@ -107,20 +87,6 @@ struct CommissionReport {
     refusal: Option<String>,
 }
 
-/// A board record as a record CSV.
-fn owned(r: &BoardRecord, path: PathBuf) -> OwnedRecord {
-    OwnedRecord {
-        path,
-        t0: 0.0,
-        dt: r.dt,
-        v: r.v.clone(),
-        omega: r.omega.clone(),
-        current: Some(r.current.clone()),
-        load: None,
-        coast_from: r.coast_from,
-    }
-}
-
 /// Set by Ctrl-C: the virtual board hears it as the host's abort.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
@@ -134,16 +100,9 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         e.apply(&mut motor)?;
     }
     if let Some(dir) = &a.out_dir {
-        if !dir.is_dir() {
-            bail!("--out-dir {}: no such directory", dir.display());
-        }
+        check_out_dir(dir)?;
     }
-    let limits = Limits {
-        voltage: a.voltage,
-        current: a.current,
-        speed: a.speed,
-        budget: a.budget,
-    };
+    let limits = a.limits.over(Limits::DEFAULT);
     let mut plant = SimulatedPlant::new(
         &motor,
         1.0 / a.rate,
@@ -182,10 +141,7 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         write_json(path, &report)?;
     }
     if let Some(dir) = &a.out_dir {
-        for (r, name) in outcome.records.iter().zip(["slow.csv", "fast.csv"]) {
-            let path = dir.join(name);
-            owned(r, path.clone()).write(&path)?;
-        }
+        write_records(dir, &outcome.records)?;
     }
     if let Some(why) = &report.refusal {
         bail!("not commissioned: {why}");

@@ -6,7 +6,7 @@
 
 use crate::device::hardware::{Bridge, Drive, Link, Sample, Watchdog};
 use crate::device::job::{abort_requested, JobEnd};
-use crate::device::limits::Limits;
+use crate::wire::limits::Limits;
 use crate::wire::protocol::{BoardMessage, JobStage, Refusal};
 
 /// Seconds between two progress frames (and two looks for an abort).

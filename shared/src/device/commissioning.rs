@@ -10,11 +10,11 @@ use crate::device::design::{design, Design};
 use crate::device::experiment::{coast_start, fast_input, record, slow_input};
 use crate::device::hardware::{Drive, Link, Watchdog};
 use crate::device::job::JobEnd;
-use crate::device::limits::Limits;
 use crate::device::probe::{probe, quiet, Probed, QUIET_BUDGET};
 use crate::device::record_store::RecordStore;
 use crate::fit::space::ProblemSpec;
 use crate::param_id::ParamId;
+use crate::wire::limits::Limits;
 use crate::wire::protocol::{BoardMessage, JobStage, Plan, Refusal};
 
 /// The probe, the design and the records of a commissioning, into `store`, within `limits`:

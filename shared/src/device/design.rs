@@ -18,8 +18,8 @@
 //! is the largest these bounds keep under ω_max, divided by the step's overshoot. A motor
 //! whose break-away voltage lies above it is refused.
 
-use crate::device::limits::Limits;
 use crate::device::probe::{Probed, QUIET_BUDGET, SPEED_SHARE};
+use crate::wire::limits::Limits;
 use crate::wire::protocol::Refusal;
 
 /// Share of the current limit the experiment's start current may reach.

@@ -4,8 +4,8 @@
 //! kept here.
 
 use crate::device::hardware::{ParamStore, Watchdog};
-use crate::wire::protocol::{MotorReport, NotStored};
-use crate::wire::stored::{self, STORED_LEN};
+use crate::wire::protocol::NotStored;
+use crate::wire::stored::{self, Stored, STORED_LEN};
 
 /// The bytes of a parameter sector.
 pub trait ParamFlash {
@@ -24,12 +24,12 @@ pub trait ParamFlash {
 pub struct FlashStore<F>(pub F);
 
 impl<F: ParamFlash> ParamStore for FlashStore<F> {
-    fn load(&mut self) -> Result<MotorReport, NotStored> {
+    fn load(&mut self) -> Result<Stored, NotStored> {
         stored::decode(&self.0.read())
     }
 
-    fn save(&mut self, report: &MotorReport, watchdog: &mut dyn Watchdog) {
-        let bytes = stored::encode(report);
+    fn save(&mut self, contents: &Stored, watchdog: &mut dyn Watchdog) {
+        let bytes = stored::encode(contents);
         watchdog.stall(F::ERASE_MAX_MS, &mut || self.0.erase());
         self.0.program(&bytes);
         if self.0.read() != bytes {
@@ -37,16 +37,13 @@ impl<F: ParamFlash> ParamStore for FlashStore<F> {
             defmt::error!("parameter sector did not read back what was written");
         }
     }
-
-    fn clear(&mut self, watchdog: &mut dyn Watchdog) {
-        watchdog.stall(F::ERASE_MAX_MS, &mut || self.0.erase());
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::protocol::Estimate;
+    use crate::wire::limits::Limits;
+    use crate::wire::protocol::{Estimate, MotorReport};
     use core::cell::Cell;
     use std::rc::Rc;
     use std::vec::Vec;
@@ -108,10 +105,18 @@ mod tests {
             evaluations: 24,
             rank: 1,
         };
-        store.save(&report, &mut dog);
-        assert_eq!(store.load(), Ok(report));
-        store.clear(&mut dog);
-        assert_eq!(store.load(), Err(NotStored::Empty));
+        let with_report = Stored {
+            limits: Limits::DEFAULT,
+            report: Some(report),
+        };
+        store.save(&with_report, &mut dog);
+        assert_eq!(store.load(), Ok(with_report));
+        let cleared = Stored {
+            limits: Limits::DEFAULT,
+            report: None,
+        };
+        store.save(&cleared, &mut dog);
+        assert_eq!(store.load(), Ok(cleared));
         assert_eq!(store.0.erases, [Some(4_000), Some(4_000)]);
     }
 }

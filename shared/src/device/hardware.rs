@@ -2,7 +2,8 @@
 //! implement (link to the host, power stage with its sensors, parameter store, watchdog).
 //! No register and no arithmetic here.
 
-use crate::wire::protocol::{BoardMessage, HostMessage, MotorReport, NotStored};
+use crate::wire::protocol::{BoardMessage, HostMessage, NotStored};
+use crate::wire::stored::Stored;
 
 /// The byte link to the host, message by message.
 pub trait Link {
@@ -41,15 +42,13 @@ pub trait Drive {
     fn stop(&mut self);
 }
 
-/// Non-volatile storage of the identified motor.
+/// Non-volatile storage of the commissioning limits and the identified motor.
 pub trait ParamStore {
-    /// The stored motor, or why none is read (nothing stored, another layout, corrupted).
-    fn load(&mut self) -> Result<MotorReport, NotStored>;
-    /// Store `report`. An erase that stalls the processor runs within `watchdog`'s
-    /// [`Watchdog::stall`].
-    fn save(&mut self, report: &MotorReport, watchdog: &mut dyn Watchdog);
-    /// Erase (within `watchdog`'s [`Watchdog::stall`], as `save`).
-    fn clear(&mut self, watchdog: &mut dyn Watchdog);
+    /// What is stored, or why nothing is read (nothing stored, another layout, corrupted).
+    fn load(&mut self) -> Result<Stored, NotStored>;
+    /// Store `stored` in place of what was. An erase that stalls the processor runs within
+    /// `watchdog`'s [`Watchdog::stall`].
+    fn save(&mut self, stored: &Stored, watchdog: &mut dyn Watchdog);
 }
 
 /// The independent watchdog: it stays on during experiments and identification, which feed

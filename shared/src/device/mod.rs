@@ -1,6 +1,6 @@
 //! The drive board's application, independent of any register: the hardware traits the
 //! board and QEMU builds implement, the service state machine that answers the host, the
-//! commissioning (limits, the watched drive, the probe, the experiment designed from it and
+//! commissioning (the watched drive, the probe, the experiment designed from it and
 //! its records), the conversion of a fit into the wire report, the stored
 //! parameters on a flash sector, and a simulated plant behind the drive traits.
 //!
@@ -13,7 +13,6 @@ pub mod experiment;
 pub mod flash_store;
 pub mod hardware;
 pub mod job;
-pub mod limits;
 pub mod plant;
 pub mod probe;
 pub mod record_store;

@@ -9,15 +9,16 @@
 use crate::device::commissioning::{commissioning_spec, run_experiment};
 use crate::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
 use crate::device::job::{abort_requested, fail, refuse, JobEnd};
-use crate::device::limits::Limits;
 use crate::device::record_store::RecordStore;
 use crate::device::report::motor_report;
 use crate::fit::identify::{identify, Identification, IdentifyConfig, Pipeline, Progress, Stage};
 use crate::fit::space::ProblemSpec;
+use crate::wire::limits::Limits;
 use crate::wire::protocol::{
-    BoardMessage, HostMessage, JobStage, MotorReport, NotStored, PipelineName, Refusal,
-    PROTOCOL_VERSION,
+    BoardMessage, HostMessage, JobStage, MotorReport, NotStored, PipelineName, RecordPart, Refusal,
+    PROTOCOL_VERSION, READ_CHUNK,
 };
+use crate::wire::stored::Stored;
 use core::ops::ControlFlow;
 
 /// Seed of the identification that power-up commissioning runs.
@@ -55,12 +56,13 @@ const fn pipeline_named(name: PipelineName) -> Pipeline {
     }
 }
 
-/// Report an identification: store it (with `store`) and send it. In a frame of its own,
-/// so that the report and its message take no stack while the identification runs.
+/// Report an identification: store it beside `limits` (with `store`) and send it. In a frame
+/// of its own, so that the report and its message take no stack while the identification
+/// runs.
 #[inline(never)]
 fn deliver(
     id: &Identification,
-    store: bool,
+    store: Option<&Limits>,
     params: &mut impl ParamStore,
     watchdog: &mut impl Watchdog,
     link: &mut impl Link,
@@ -69,8 +71,12 @@ fn deliver(
     let Some(report) = motor_report(id) else {
         return fail(JobEnd::Refused(Refusal::InvalidRecord), link);
     };
-    if store {
-        params.save(&report, watchdog);
+    if let Some(limits) = store {
+        let stored = Stored {
+            limits: *limits,
+            report: Some(report.clone()),
+        };
+        params.save(&stored, watchdog);
     }
     // Sent in place and taken back (no copy of the report).
     let message = BoardMessage::Identified(report);
@@ -89,7 +95,8 @@ pub struct Service<'s, const N: usize> {
 }
 
 impl<'s, const N: usize> Service<'s, N> {
-    /// A service using `store` for records, within `limits` when commissioning.
+    /// A service using `store` for records, within `limits` when commissioning (until
+    /// [`Service::boot`] reads the stored ones, or the host sets others).
     pub fn new(store: &'s mut RecordStore<N>, limits: Limits) -> Self {
         Service {
             store,
@@ -105,8 +112,10 @@ impl<'s, const N: usize> Service<'s, N> {
         hw: &mut Hardware<L, D, P, W>,
     ) -> Boot {
         hw.watchdog.feed();
-        let found = match hw.params.load() {
-            Ok(stored) => return Boot::InService(stored),
+        let stored = hw.params.load();
+        self.limits = Stored::limits(&stored);
+        let found = match Stored::report(stored) {
+            Ok(report) => return Boot::InService(report),
             Err(found) => found,
         };
         match self.commission(BOOT_SEED, hw) {
@@ -162,14 +171,19 @@ impl<'s, const N: usize> Service<'s, N> {
                 dt,
                 samples,
                 with_current,
+                coast_from,
             } => {
                 if samples as usize > N {
                     refuse(&mut hw.link, Refusal::RecordTooLong { max: N as u32 });
                     return;
                 }
+                if coast_from.is_some_and(|k| k >= samples) {
+                    refuse(&mut hw.link, Refusal::BadChunk);
+                    return;
+                }
                 let s = &mut *self.store;
                 s.clear(with_current);
-                s.open(dt, None);
+                s.open(dt, coast_from.map(|k| k as usize));
                 s.expected = samples as usize;
                 let first = BoardMessage::ChunkOk { next: 0 };
                 hw.link.send(&first);
@@ -222,19 +236,65 @@ impl<'s, const N: usize> Service<'s, N> {
                 let _ = self.commission(seed, hw);
             }
             HostMessage::ReadParams => {
-                let stored = hw.params.load();
+                let stored = Stored::report(hw.params.load());
                 hw.link.send(&BoardMessage::Params(stored));
             }
             HostMessage::ClearParams => {
-                hw.params.clear(&mut hw.watchdog);
+                let limits_only = Stored {
+                    limits: self.limits,
+                    report: None,
+                };
+                hw.params.save(&limits_only, &mut hw.watchdog);
                 let cleared = BoardMessage::Cleared;
                 hw.link.send(&cleared);
             }
+            HostMessage::Configure(limits) => {
+                if !limits.usable() {
+                    refuse(&mut hw.link, Refusal::BadLimits);
+                    return;
+                }
+                self.limits = limits;
+                // The parameters stay: the motor does not change with the drive's limits.
+                let report = Stored::report(hw.params.load()).ok();
+                hw.params.save(&Stored { limits, report }, &mut hw.watchdog);
+                hw.link.send(&BoardMessage::Limits(limits));
+            }
+            HostMessage::ReadLimits => {
+                hw.link.send(&BoardMessage::Limits(self.limits));
+            }
+            HostMessage::ReadRecord { record, offset } => match self.record_part(record, offset) {
+                Some(part) => hw.link.send(&BoardMessage::RecordData(part)),
+                None => refuse(&mut hw.link, Refusal::NoRecord),
+            },
             HostMessage::Abort => {
                 let aborted = BoardMessage::Aborted;
                 hw.link.send(&aborted);
             }
         }
+    }
+
+    /// Samples `offset..` (at most [`READ_CHUNK`]) of record `index`, if it is held and
+    /// `offset` lies within it.
+    fn record_part(&self, index: u8, offset: u32) -> Option<RecordPart> {
+        let records = self.store.records();
+        let r = records.get(index as usize)?;
+        let (start, len) = (offset as usize, r.len());
+        if start >= len {
+            return None;
+        }
+        let span = start..(start + READ_CHUNK).min(len);
+        let take = |x: &[f32]| heapless::Vec::from_slice(&x[span.clone()]).ok();
+        Some(RecordPart {
+            record: index,
+            records: records.len() as u8,
+            dt: r.dt,
+            samples: len as u32,
+            coast_from: r.coast_from.map(|k| k as u32),
+            offset,
+            v: take(r.v)?,
+            omega: take(r.omega)?,
+            current: r.current.map_or(Some(heapless::Vec::new()), take)?,
+        })
     }
 
     /// Identify from the stored record, reporting progress and feeding the watchdog at every
@@ -246,6 +306,7 @@ impl<'s, const N: usize> Service<'s, N> {
         hw: &mut Hardware<L, D, P, W>,
         store: bool,
     ) -> Result<MotorReport, JobEnd> {
+        let limits = self.limits;
         let records = self.store.records();
         let mut aborted = false;
         let (link, watchdog) = (&mut hw.link, &mut hw.watchdog);
@@ -272,7 +333,10 @@ impl<'s, const N: usize> Service<'s, N> {
         // By reference: the identification is not moved into a second copy on this frame.
         let end = match &result {
             _ if aborted => JobEnd::Aborted,
-            Ok(id) => return deliver(id, store, &mut hw.params, &mut hw.watchdog, &mut hw.link),
+            Ok(id) => {
+                let store = store.then_some(&limits);
+                return deliver(id, store, &mut hw.params, &mut hw.watchdog, &mut hw.link);
+            }
             Err(crate::Error::InvalidConfig) => JobEnd::Refused(Refusal::PipelineTooLarge),
             Err(_) => JobEnd::Refused(Refusal::InvalidRecord),
         };

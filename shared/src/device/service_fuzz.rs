@@ -61,6 +61,8 @@ struct Model {
     upload: Option<Upload>,
     /// The parameters stored (by a successful commissioning), if any.
     stored: Option<MotorReport>,
+    /// The limits commissioning works within (the last usable ones the host set).
+    limits: Limits,
 }
 
 #[derive(Clone, Copy)]
@@ -81,6 +83,7 @@ impl Model {
                 with_current: false,
             }),
             stored: None,
+            limits: LIMITS,
         }
     }
 
@@ -183,11 +186,14 @@ impl Model {
             H::IdentifyBegin {
                 samples,
                 with_current,
+                coast_from,
                 ..
             } => {
                 if *samples as usize > CAPACITY {
                     let max = CAPACITY as u32;
                     prop_assert_eq!(reply, &refused(Refusal::RecordTooLong { max }));
+                } else if coast_from.is_some_and(|k| k >= *samples) {
+                    prop_assert_eq!(reply, &refused(Refusal::BadChunk));
                 } else {
                     prop_assert_eq!(reply, &B::ChunkOk { next: 0 });
                     self.upload = Some(Upload {
@@ -256,6 +262,27 @@ impl Model {
                 self.stored = None;
             }
             H::Abort => prop_assert_eq!(reply, &B::Aborted),
+            H::Configure(limits) => {
+                if limits.usable() {
+                    prop_assert_eq!(reply, &B::Limits(*limits));
+                    self.limits = *limits;
+                } else {
+                    prop_assert_eq!(reply, &refused(Refusal::BadLimits));
+                }
+            }
+            H::ReadLimits => prop_assert_eq!(reply, &B::Limits(self.limits)),
+            H::ReadRecord { record, offset } => match reply {
+                B::RecordData(part) => {
+                    let (n, left) = (part.v.len(), part.samples.saturating_sub(*offset));
+                    prop_assert!(part.record == *record && part.offset == *offset);
+                    prop_assert!(*record < part.records && *offset < part.samples);
+                    prop_assert_eq!(n, (left as usize).min(READ_CHUNK));
+                    prop_assert_eq!(part.omega.len(), n);
+                    prop_assert!(part.current.is_empty() || part.current.len() == n);
+                }
+                B::Refused(Refusal::NoRecord) => {}
+                _ => return fail(),
+            },
         }
         Ok(())
     }
@@ -315,6 +342,7 @@ fn upload(data: &Owned) -> Vec<HostMessage> {
         dt: data.dt,
         samples: n as u32,
         with_current: true,
+        coast_from: None,
     };
     let chunk = |s: usize| {
         let e = (s + CHUNK).min(n);
@@ -534,6 +562,7 @@ fn write_service_corpus() {
                 dt: DT,
                 samples: u32::MAX,
                 with_current: false,
+                coast_from: None,
             }]),
         ),
     ];

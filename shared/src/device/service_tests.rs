@@ -43,26 +43,29 @@ impl Link for TestLink {
     }
 }
 
-/// Parameters in RAM: the stored report and the saves. Like a flash sector, it erases
-/// within the watchdog's stall (the one the service hands it: the hardware's).
+/// Parameters in RAM: what is stored and the saves. Like a flash sector, it erases within
+/// the watchdog's stall (the one the service hands it: the hardware's).
 #[derive(Default)]
-struct RamParams(Option<MotorReport>, u32);
+struct RamParams(Option<Stored>, u32);
+
+impl RamParams {
+    /// The stored report.
+    fn report(&self) -> Option<MotorReport> {
+        self.0.as_ref().and_then(|s| s.report.clone())
+    }
+}
 
 /// A flash sector's worst erase time [ms] (STM32F405, 128 KB at x8 parallelism).
 const ERASE_MS: u32 = 4_000;
 
 impl ParamStore for RamParams {
-    fn load(&mut self) -> Result<MotorReport, NotStored> {
+    fn load(&mut self) -> Result<Stored, NotStored> {
         self.0.clone().ok_or(NotStored::Empty)
     }
-    fn save(&mut self, report: &MotorReport, watchdog: &mut dyn Watchdog) {
+    fn save(&mut self, stored: &Stored, watchdog: &mut dyn Watchdog) {
         watchdog.stall(ERASE_MS, &mut || {});
-        self.0 = Some(report.clone());
+        self.0 = Some(stored.clone());
         self.1 += 1;
-    }
-    fn clear(&mut self, watchdog: &mut dyn Watchdog) {
-        watchdog.stall(ERASE_MS, &mut || {});
-        self.0 = None;
     }
 }
 
@@ -134,7 +137,7 @@ fn first_power_up_commissions_then_boots_into_service() {
     let friction = friction_of(&report);
     assert!(friction.std < 0.1 * DEMO_FRICTION, "tc {friction:?}");
     assert_eq!(report.rank, 6, "speed, current and coast-down pin all six");
-    assert_eq!(hw.params.0, Some(report.clone()));
+    assert_eq!(hw.params.report(), Some(report.clone()));
     assert_eq!(hw.drive.stopped, 1, "drive removed after the experiment");
     assert_eq!(
         hw.link.sent.last(),
@@ -168,7 +171,7 @@ fn first_power_up_commissions_then_boots_into_service() {
         &mut hw,
     );
     service.handle(HostMessage::ClearParams, &mut hw);
-    assert_eq!(hw.params.0, None);
+    assert_eq!(hw.params.report(), None);
     assert_eq!(hw.watchdog.1, 2);
 }
 
@@ -201,7 +204,7 @@ fn assert_refused_at_boot<D: Drive>(
     let end = JobEnd::Refused(why);
     let found = NotStored::Empty;
     assert_eq!(service.boot(hw), Boot::NotCommissioned { end, found });
-    assert_eq!(hw.params.0, None);
+    assert_eq!(hw.params.report(), None);
     assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Refused(why)));
 }
 
@@ -323,17 +326,121 @@ fn a_tight_current_limit_is_kept_and_the_motor_still_commissioned() {
     assert!(plan_of(&hw.link.sent).volts < 0.7 * 5.0 * 3.412 * 1.1);
 }
 
+/// Open a session.
+fn say_hello<D: Drive>(
+    service: &mut Service<'_, SAMPLES>,
+    hw: &mut Hardware<TestLink, D, RamParams, CountingWatchdog>,
+) {
+    let hello = HostMessage::Hello {
+        version: PROTOCOL_VERSION,
+    };
+    service.handle(hello, hw);
+}
+
 #[test]
-fn a_break_away_beyond_the_current_limit_is_refused_before_any_trip() {
-    // Coulomb friction of 1 N m needs 1 / 0.1604 = 6.2 A to turn the shaft: 5 A cannot.
+fn limits_set_by_the_host_are_stored_kept_over_power_up_and_clear_and_obeyed() {
+    // Coulomb friction of 1 N m needs 1 / 0.1604 = 6.2 A to turn the shaft: the default
+    // 40 A turn it, 5 A cannot.
     let mut store = RecordStore::<SAMPLES>::new();
-    let mut service = Service::new(&mut store, FIVE_AMPS);
     let mut hw = watched_hardware(Watched::new(plant_with_friction(1.0)));
-    let end = service.commission(1, &mut hw).unwrap_err();
-    assert_eq!(end, JobEnd::Refused(Refusal::NoMotion));
+    let mut service = Service::new(&mut store, LIMITS);
+    say_hello(&mut service, &mut hw);
+    service.handle(HostMessage::Configure(FIVE_AMPS), &mut hw);
+    assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Limits(FIVE_AMPS)));
+    // Unusable limits are refused and change nothing.
+    let too_short = Limits {
+        budget: 1.0,
+        ..FIVE_AMPS
+    };
+    service.handle(HostMessage::Configure(too_short), &mut hw);
+    let refused = BoardMessage::Refused(Refusal::BadLimits);
+    assert_eq!(hw.link.sent.last(), Some(&refused));
+    // Erasing the parameters keeps the limits.
+    service.handle(HostMessage::ClearParams, &mut hw);
+    assert_eq!(hw.params.0.as_ref().map(|s| s.limits), Some(FIVE_AMPS));
+    // Power cycle: the stored limits hold, and power-up commissioning works within them:
+    // the shaft does not turn within 5 A, refused before any trip.
+    let mut service = Service::new(&mut store, LIMITS);
+    assert_refused_at_boot(&mut service, &mut hw, Refusal::NoMotion);
     assert!(hw.drive.largest < 5.0, "{} A", hw.drive.largest);
     assert_eq!(hw.drive.plant.stopped, 1);
-    assert_eq!(hw.params.0, None);
+    say_hello(&mut service, &mut hw);
+    service.handle(HostMessage::ReadLimits, &mut hw);
+    assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Limits(FIVE_AMPS)));
+}
+
+/// Every part of record `index` the board sends, read from `offset` 0 on.
+fn read_record<D: Drive>(
+    service: &mut Service<'_, SAMPLES>,
+    hw: &mut Hardware<TestLink, D, RamParams, CountingWatchdog>,
+    index: u8,
+) -> Vec<crate::wire::protocol::RecordPart> {
+    let mut parts = Vec::new();
+    let mut offset = 0;
+    loop {
+        service.handle(
+            HostMessage::ReadRecord {
+                record: index,
+                offset,
+            },
+            hw,
+        );
+        match hw.link.sent.last() {
+            Some(BoardMessage::RecordData(part)) => {
+                offset += part.v.len() as u32;
+                let done = offset >= part.samples;
+                parts.push(part.clone());
+                if done {
+                    return parts;
+                }
+            }
+            other => panic!("record {index} at {offset}: {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn the_records_of_a_commissioning_are_read_back_exactly_as_fitted() {
+    let mut store = RecordStore::<SAMPLES>::new();
+    let mut hw = hardware(seed_plant());
+    let mut service = Service::new(&mut store, LIMITS);
+    say_hello(&mut service, &mut hw);
+    let nothing = BoardMessage::Refused(Refusal::NoRecord);
+    service.handle(
+        HostMessage::ReadRecord {
+            record: 0,
+            offset: 0,
+        },
+        &mut hw,
+    );
+    assert_eq!(hw.link.sent.last(), Some(&nothing), "nothing recorded yet");
+    service.commission(1, &mut hw).expect("commissioned");
+    let read: Vec<_> = (0..2)
+        .map(|k| read_record(&mut service, &mut hw, k))
+        .collect();
+    for (index, offset) in [(2, 0), (0, read[0][0].samples)] {
+        service.handle(
+            HostMessage::ReadRecord {
+                record: index,
+                offset,
+            },
+            &mut hw,
+        );
+        assert_eq!(hw.link.sent.last(), Some(&nothing), "{index} at {offset}");
+    }
+    let records = store.records();
+    assert_eq!(records.len(), 2);
+    for (parts, r) in read.iter().zip(&records) {
+        let column = |f: fn(&crate::wire::protocol::RecordPart) -> &[f32]| -> Vec<f32> {
+            parts.iter().flat_map(|p| f(p).to_vec()).collect()
+        };
+        assert!(parts.iter().all(|p| p.records == 2 && p.dt == r.dt));
+        assert_eq!(parts[0].coast_from, r.coast_from.map(|k| k as u32));
+        assert_eq!(column(|p| &p.v), r.v);
+        assert_eq!(column(|p| &p.omega), r.omega);
+        assert_eq!(Some(column(|p| &p.current).as_slice()), r.current);
+    }
+    assert!(read[0][0].coast_from.is_some() && read[1][0].coast_from.is_none());
 }
 
 #[test]
@@ -402,7 +509,7 @@ fn abort_during_identification_stores_nothing_and_requests_meanwhile_are_busy() 
             found: NotStored::Empty
         }
     );
-    assert_eq!(hw.params.0, None);
+    assert_eq!(hw.params.report(), None);
     assert!(hw.link.sent.contains(&BoardMessage::Refused(Refusal::Busy)));
     assert_eq!(hw.link.sent.last(), Some(&BoardMessage::Aborted));
     assert!(hw.link.sent.iter().any(|m| matches!(
@@ -460,6 +567,7 @@ fn a_chunk_that_would_end_past_u32_max_is_refused_not_taken_for_a_repeat() {
             dt: 0.01,
             samples: 16,
             with_current: false,
+            coast_from: None,
         },
         HostMessage::RecordChunk {
             offset: u32::MAX,

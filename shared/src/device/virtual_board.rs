@@ -6,10 +6,11 @@
 
 use crate::device::hardware::{Drive, Hardware, Link, NoWatchdog, ParamStore, Watchdog};
 use crate::device::job::JobEnd;
-use crate::device::limits::Limits;
 use crate::device::record_store::RecordStore;
 use crate::device::service::Service;
+use crate::wire::limits::Limits;
 use crate::wire::protocol::{BoardMessage, HostMessage, MotorReport, NotStored, Plan};
+use crate::wire::stored::Stored;
 use core::sync::atomic::{AtomicBool, Ordering};
 use std::boxed::Box;
 use std::vec::Vec;
@@ -67,17 +68,14 @@ impl Link for CallbackLink<'_> {
 
 /// Parameters in RAM.
 #[derive(Default)]
-struct RamParams(Option<MotorReport>);
+struct RamParams(Option<Stored>);
 
 impl ParamStore for RamParams {
-    fn load(&mut self) -> Result<MotorReport, NotStored> {
+    fn load(&mut self) -> Result<Stored, NotStored> {
         self.0.clone().ok_or(NotStored::Empty)
     }
-    fn save(&mut self, report: &MotorReport, _watchdog: &mut dyn Watchdog) {
-        self.0 = Some(report.clone());
-    }
-    fn clear(&mut self, _watchdog: &mut dyn Watchdog) {
-        self.0 = None;
+    fn save(&mut self, stored: &Stored, _watchdog: &mut dyn Watchdog) {
+        self.0 = Some(stored.clone());
     }
 }
 

@@ -4,6 +4,7 @@
 //! extreme floats, offsets and sample counts around a board's capacity, `u32::MAX`.
 
 use crate::capacity::MAX_ESTIMATES;
+use crate::wire::limits::Limits;
 use crate::wire::protocol::*;
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -66,6 +67,29 @@ fn record_chunk(capacity: u32) -> impl Strategy<Value = HostMessage> {
     })
 }
 
+/// Any limits (mostly unusable ones: any floats), or usable ones near the defaults (a
+/// budget of at most the default 60 s, which bounds a fuzzed commissioning's length).
+pub(crate) fn limits() -> impl Strategy<Value = Limits> {
+    prop_oneof![
+        1 => [float(), float(), float(), float()].prop_map(|[voltage, current, speed, budget]| {
+            Limits {
+                voltage,
+                current,
+                speed,
+                budget,
+            }
+        }),
+        1 => (1.0f32..100.0, 0.5f32..50.0, 10.0f32..1000.0, 5.0f32..60.0).prop_map(
+            |(voltage, current, speed, budget)| Limits {
+                voltage,
+                current,
+                speed,
+                budget,
+            }
+        ),
+    ]
+}
+
 /// Any pipeline name.
 pub(crate) fn pipeline() -> impl Strategy<Value = PipelineName> {
     select(vec![
@@ -82,13 +106,20 @@ pub(crate) fn host_message(capacity: u32) -> impl Strategy<Value = HostMessage> 
     let version = prop_oneof![3 => Just(PROTOCOL_VERSION), 1 => any::<u16>()];
     prop_oneof![
         2 => version.prop_map(|version| HostMessage::Hello { version }),
-        2 => (float(), count_near(capacity), any::<bool>()).prop_map(
-            |(dt, samples, with_current)| HostMessage::IdentifyBegin {
-                dt,
-                samples,
-                with_current,
-            }
-        ),
+        2 => (
+            float(),
+            count_near(capacity),
+            any::<bool>(),
+            prop_oneof![3 => Just(None), 1 => count_near(capacity).prop_map(Some)]
+        )
+            .prop_map(|(dt, samples, with_current, coast_from)| {
+                HostMessage::IdentifyBegin {
+                    dt,
+                    samples,
+                    with_current,
+                    coast_from,
+                }
+            }),
         6 => record_chunk(capacity),
         1 => (any::<u64>(), pipeline()).prop_map(|(seed, pipeline)| HostMessage::Identify {
             seed,
@@ -98,6 +129,10 @@ pub(crate) fn host_message(capacity: u32) -> impl Strategy<Value = HostMessage> 
         1 => Just(HostMessage::ReadParams),
         1 => Just(HostMessage::ClearParams),
         2 => Just(HostMessage::Abort),
+        1 => limits().prop_map(HostMessage::Configure),
+        1 => Just(HostMessage::ReadLimits),
+        1 => (any::<u8>(), count_near(capacity))
+            .prop_map(|(record, offset)| HostMessage::ReadRecord { record, offset }),
     ]
 }
 
@@ -117,6 +152,7 @@ fn refusal() -> impl Strategy<Value = Refusal> {
             Refusal::NoMotion,
             Refusal::TooFast,
             Refusal::BadLimits,
+            Refusal::NoRecord,
         ]),
     ]
 }
@@ -215,5 +251,32 @@ pub(crate) fn board_message() -> impl Strategy<Value = BoardMessage> {
             .prop_map(BoardMessage::Params),
         Just(BoardMessage::Cleared),
         Just(BoardMessage::Aborted),
+        limits().prop_map(BoardMessage::Limits),
+        record_part().prop_map(BoardMessage::RecordData),
     ]
+}
+
+/// Any part of a record (any numbers and lengths, as a corrupt or hostile board may send).
+fn record_part() -> impl Strategy<Value = RecordPart> {
+    let samples = || vec(float(), 0..=READ_CHUNK).prop_map(heapless_vec);
+    (
+        (any::<u8>(), any::<u8>(), float(), any::<u32>()),
+        (proptest::option::of(any::<u32>()), any::<u32>()),
+        (samples(), samples(), samples()),
+    )
+        .prop_map(
+            |((record, records, dt, total), (coast_from, offset), (v, omega, current))| {
+                RecordPart {
+                    record,
+                    records,
+                    dt,
+                    samples: total,
+                    coast_from,
+                    offset,
+                    v,
+                    omega,
+                    current,
+                }
+            },
+        )
 }

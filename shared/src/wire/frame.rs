@@ -129,6 +129,7 @@ mod fuzz;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wire::limits::Limits;
     use crate::wire::protocol::*;
     use proptest::prelude::*;
     use std::vec::Vec;
@@ -143,6 +144,7 @@ mod tests {
                 dt: 1e-3,
                 samples: 2000,
                 with_current: true,
+                coast_from: None,
             },
             HostMessage::Identify {
                 seed: 7,
@@ -164,8 +166,28 @@ mod tests {
             HostMessage::ReadParams,
             HostMessage::ClearParams,
             HostMessage::Abort,
+            HostMessage::Configure(LIMITS),
+            HostMessage::ReadLimits,
+            HostMessage::ReadRecord {
+                record: 1,
+                offset: 1992,
+            },
+            HostMessage::IdentifyBegin {
+                dt: 1e-3,
+                samples: 2000,
+                with_current: true,
+                coast_from: Some(1500),
+            },
         ]
     }
+
+    /// Limits other than the defaults.
+    const LIMITS: Limits = Limits {
+        voltage: 24.0,
+        current: 10.0,
+        speed: 300.0,
+        budget: 30.0,
+    };
 
     pub(super) fn every_reply() -> Vec<BoardMessage> {
         let values = [3.4, 0.057, 0.042, 0.0027, 0.16, 0.05];
@@ -212,7 +234,58 @@ mod tests {
             BoardMessage::Identified(report(5)),
             BoardMessage::Cleared,
             BoardMessage::Aborted,
+            BoardMessage::Limits(LIMITS),
+            BoardMessage::RecordData(RecordPart {
+                record: 0,
+                records: 2,
+                dt: 5e-3,
+                samples: 1800,
+                coast_from: Some(1350),
+                offset: 1792,
+                v: heapless::Vec::from_slice(&[12.0; READ_CHUNK]).unwrap(),
+                omega: heapless::Vec::from_slice(&[-300.5; READ_CHUNK]).unwrap(),
+                current: heapless::Vec::from_slice(&[39.9; READ_CHUNK]).unwrap(),
+            }),
+            BoardMessage::Refused(Refusal::NoRecord),
         ]
+    }
+
+    #[test]
+    fn the_messages_of_protocol_9_have_the_bytes_docs_contracts_gives() {
+        // Postcard: the variant's index as a varint, then each field (f32 little-endian,
+        // integers as varints, an option as a 0/1 tag before its value).
+        let mut out = [0u8; 64];
+        let bytes =
+            |m: &HostMessage, out: &mut [u8; 64]| postcard::to_slice(m, out).unwrap().to_vec();
+        let limits = [
+            0x00, 0x00, 0xC0, 0x41, 0x00, 0x00, 0x20, 0x41, 0x00, 0x00, 0x96, 0x43, 0x00, 0x00,
+            0xF0, 0x41,
+        ];
+        let mut configure = vec![8];
+        configure.extend(limits);
+        assert_eq!(bytes(&HostMessage::Configure(LIMITS), &mut out), configure);
+        assert_eq!(bytes(&HostMessage::ReadLimits, &mut out), [9]);
+        let read = HostMessage::ReadRecord {
+            record: 1,
+            offset: 300,
+        };
+        assert_eq!(bytes(&read, &mut out), [10, 1, 0xAC, 0x02]);
+        let begin = HostMessage::IdentifyBegin {
+            dt: 1.0,
+            samples: 5,
+            with_current: true,
+            coast_from: Some(3),
+        };
+        assert_eq!(
+            bytes(&begin, &mut out),
+            [1, 0x00, 0x00, 0x80, 0x3F, 5, 1, 1, 3]
+        );
+        let reply = postcard::to_slice(&BoardMessage::Limits(LIMITS), &mut out)
+            .unwrap()
+            .to_vec();
+        let mut want = vec![9];
+        want.extend(limits);
+        assert_eq!(reply, want);
     }
 
     fn roundtrip<T: Serialize + DeserializeOwned>(msg: &T) -> T {
@@ -255,6 +328,7 @@ mod tests {
             dt: 1e-3,
             samples: 2000,
             with_current: false,
+            coast_from: None,
         };
         let mut out = [0u8; MAX_FRAME];
         let frame = encode(&msg, &mut out).unwrap().to_vec();

@@ -3,13 +3,19 @@
 //! host and a firmware that disagree refuse politely instead of misreading each other.
 
 use crate::capacity::MAX_ESTIMATES;
+use crate::wire::limits::Limits;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 8;
+pub const PROTOCOL_VERSION: u16 = 9;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
+
+/// Samples per [`BoardMessage::RecordData`]: fewer than [`CHUNK`], because every board
+/// message is as large as its largest variant and the identification's progress messages
+/// are built on the board's deepest stack.
+pub const READ_CHUNK: usize = 8;
 
 /// What the host asks.
 // No allocator on the board: a record chunk travels inline, so this enum is as large as it.
@@ -29,6 +35,9 @@ pub enum HostMessage {
         samples: u32,
         /// Whether chunks carry current.
         with_current: bool,
+        /// First sample of the record's coast-down (bridge open from there to the end; its
+        /// voltage not applied), if it has one (protocol 9).
+        coast_from: Option<u32>,
     },
     /// Samples `offset..offset + v.len()` of the announced record.
     RecordChunk {
@@ -60,6 +69,21 @@ pub enum HostMessage {
     ClearParams,
     /// Stop the running identification or experiment.
     Abort,
+    /// Set the limits commissioning works within and store them beside the parameters
+    /// (protocol 9); the board answers [`BoardMessage::Limits`] or refuses
+    /// [`Refusal::BadLimits`].
+    Configure(Limits),
+    /// Report the limits commissioning works within (protocol 9).
+    ReadLimits,
+    /// Samples `offset..` of record `record` the board holds (protocol 9): the commissioning
+    /// experiment's (0 slow, 1 fast) or the one streamed in; the board answers
+    /// [`BoardMessage::RecordData`].
+    ReadRecord {
+        /// Which record (0 first).
+        record: u8,
+        /// Index of the first sample wanted.
+        offset: u32,
+    },
 }
 
 /// Which identification pipeline the board runs: the settings of the host's
@@ -242,6 +266,8 @@ pub enum Refusal {
     /// Commissioning probe: the limits are not usable (a voltage, current, speed or time
     /// budget that is not a finite positive number, or a budget too short for any probe).
     BadLimits,
+    /// No record with that index is held, or the offset lies past its end (protocol 9).
+    NoRecord,
 }
 
 impl core::fmt::Display for Refusal {
@@ -273,6 +299,9 @@ impl core::fmt::Display for Refusal {
             ),
             Refusal::BadLimits => f.write_str(
                 "the commissioning limits are not finite positive numbers, or the time budget is too short",
+            ),
+            Refusal::NoRecord => f.write_str(
+                "the board holds no such record (commission, or stream one in, first)",
             ),
         }
     }
@@ -318,6 +347,33 @@ pub enum BoardMessage {
     /// The job was stopped on request.
     Aborted,
     /// Commissioning: what the probe measured and the experiment it designed (protocol 8;
-    /// last, so that the older variants keep their encoding).
+    /// after the older variants, so that they keep their encoding).
     Planned(Plan),
+    /// The limits commissioning works within, as stored (protocol 9).
+    Limits(Limits),
+    /// Part of a record the board holds (protocol 9).
+    RecordData(RecordPart),
+}
+
+/// Samples of a record the board holds, with what a record file needs (protocol 9).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RecordPart {
+    /// Which record (0 first).
+    pub record: u8,
+    /// Records held.
+    pub records: u8,
+    /// Sample step [s].
+    pub dt: f32,
+    /// Samples of the record.
+    pub samples: u32,
+    /// First sample of its coast-down (bridge open from there to the end), if any.
+    pub coast_from: Option<u32>,
+    /// Index of the first sample of this part.
+    pub offset: u32,
+    /// Voltage applied [V] (0 where the bridge is open).
+    pub v: heapless::Vec<f32, READ_CHUNK>,
+    /// Speed read [rad/s].
+    pub omega: heapless::Vec<f32, READ_CHUNK>,
+    /// Current read, the sensor's offset removed [A] (empty when the record has none).
+    pub current: heapless::Vec<f32, READ_CHUNK>,
 }

@@ -1,0 +1,52 @@
+//! The records a board recorded (the commissioning experiment's slow and fast records, or a
+//! record streamed to it) as record CSVs, `bridge` column included: one writer for the
+//! virtual board (`commission --sim --out-dir`) and for a board's download
+//! (`board record --out-dir`), so that `identify`, `validate` and `diagnose` run on exactly
+//! what the board fitted.
+
+use crate::csvio::OwnedRecord;
+use anyhow::{bail, Result};
+use motor_id_shared::device::virtual_board::BoardRecord;
+use std::path::{Path, PathBuf};
+
+/// The file names of `count` records: a commissioning's two are `slow.csv` and `fast.csv`,
+/// anything else `record-1.csv`, `record-2.csv`, ...
+pub fn file_names(count: usize) -> Vec<String> {
+    match count {
+        2 => vec!["slow.csv".into(), "fast.csv".into()],
+        n => (1..=n).map(|k| format!("record-{k}.csv")).collect(),
+    }
+}
+
+/// Refuse an output directory that does not exist, before any work.
+pub fn check_out_dir(dir: &Path) -> Result<()> {
+    if !dir.is_dir() {
+        bail!("--out-dir {}: no such directory", dir.display());
+    }
+    Ok(())
+}
+
+/// A board record as a record CSV at `path`.
+fn record_file(r: &BoardRecord, path: PathBuf) -> OwnedRecord {
+    OwnedRecord {
+        path,
+        t0: 0.0,
+        dt: r.dt,
+        v: r.v.clone(),
+        omega: r.omega.clone(),
+        current: (!r.current.is_empty()).then(|| r.current.clone()),
+        load: None,
+        coast_from: r.coast_from,
+    }
+}
+
+/// Write `records` into `dir` (each atomically) under [`file_names`]; the paths written.
+pub fn write_records(dir: &Path, records: &[BoardRecord]) -> Result<Vec<PathBuf>> {
+    let mut written = Vec::new();
+    for (r, name) in records.iter().zip(file_names(records.len())) {
+        let path = dir.join(name);
+        record_file(r, path.clone()).write(&path)?;
+        written.push(path);
+    }
+    Ok(written)
+}
