@@ -3,7 +3,9 @@
 //! (its own RK4 and friction), with 12-bit readings; and `motor-id commission --sim`.
 
 use motor_id_shared::device::job::JobEnd;
+use motor_id_shared::device::plant::SimulatedPlant;
 use motor_id_shared::device::virtual_board::commission;
+use motor_id_shared::ModelParams;
 use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::Refusal;
@@ -98,6 +100,23 @@ fn corners_of_the_box_commission_within_three_percent_on_the_reference_plant() {
         }
         assert!(c.seconds <= limits.budget, "{m:?}: {} s", c.seconds);
     }
+}
+
+#[test]
+fn a_heavy_shaft_still_turning_as_the_electrical_step_starts_gives_its_resistance() {
+    // J = 0.47 kg m^2 and Coulomb friction of 5 % of the drive's torque, at 20 kHz: the
+    // ramp's break-away is seen late and the shaft still turns slowly, its braking current
+    // below zero, when the electrical step begins. Counted from 0 A, that climb ended the
+    // step at once: Ra read 27 times too high, and the records tripped. (A regression test
+    // of the probe's logic on the shared plant, which reproduces the case.)
+    let limits = Limits::DEFAULT;
+    let p = ModelParams::motor(0.6944567, 0.030701892, 0.47165352, 0.118080966, 0.6185718)
+        .with(ParamId::Tc, 1.2371436);
+    let plant = SimulatedPlant::new(&p, 5e-5, 0.1, 0.005, 2).unwrap();
+    let c = commission(plant, limits, 1, None, &mut |_| {});
+    let plan = c.plan.expect("probed");
+    assert!((plan.ra / 0.6944567 - 1.0).abs() < 0.3, "{plan:?}");
+    assert!(c.result.is_ok(), "{:?}", c.result);
 }
 
 #[test]

@@ -270,7 +270,10 @@ pub fn electrical_step<D: Drive, L: Link, W: Watchdog>(
     let most = (0.1 * limits.budget / bench.dt()) as u32;
     for _ in 0..3 {
         let mut trace = Trace::<TRACE>::new();
-        let (mut rising_from, mut last_rise, mut k) = (0.0f32, 0u32, 0u32);
+        // Rises counted from the first reading on: a heavy shaft may still turn slowly as the
+        // step starts, its braking current below zero, and a climb counted from 0 A was no
+        // rise at all (the step ended at once and Ra came out tens of times too high).
+        let (mut rising_from, mut last_rise, mut k) = (f32::NEG_INFINITY, 0u32, 0u32);
         let mut guarded = false;
         while k < most {
             let Some(s) = bench.guarded(Bridge::Drive(v), 1.0)? else {
