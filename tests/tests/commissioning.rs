@@ -5,10 +5,10 @@
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
 use motor_id_shared::device::virtual_board::commission;
-use motor_id_shared::ModelParams;
 use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::Refusal;
+use motor_id_shared::ModelParams;
 use motor_id_tests::reference_plant::drive::ReferenceDrive;
 use motor_id_tests::reference_plant::{Effects, Motor};
 use motor_id_tests::{assert_within_3_percent, json, run, run_err, run_ok, s, SEED_WITH_FRICTION};

@@ -34,9 +34,15 @@ pub fn plant_motor(default: ModelParams) -> ModelParams {
         let Some(id) = ParamId::from_name(name) else {
             defmt::panic!("QEMU plant: '{}' names no parameter", name);
         };
-        let bits = value.strip_prefix("0x").map(|hex| u32::from_str_radix(hex, 16));
+        let bits = value
+            .strip_prefix("0x")
+            .map(|hex| u32::from_str_radix(hex, 16));
         let Some(Ok(bits)) = bits else {
-            defmt::panic!("QEMU plant: {} = '{}' is not 0x and 8 hex digits", name, value);
+            defmt::panic!(
+                "QEMU plant: {} = '{}' is not 0x and 8 hex digits",
+                name,
+                value
+            );
         };
         motor.set(id, f32::from_bits(bits));
     }
