@@ -29,6 +29,7 @@ fn main() {
     let mut refusals: BTreeMap<String, usize> = BTreeMap::new();
     let (mut trips, mut like, mut like_ok, mut all_ok) = (0, 0, 0, 0);
     let (mut pinned, mut within) = (0, 0);
+    let mut outside: BTreeMap<&str, usize> = BTreeMap::new();
     let mut seconds = Vec::new();
     let mut evaluations = Vec::new();
     for m in 0..motors {
@@ -70,7 +71,11 @@ fn main() {
             ok &= e.pinned() && rel <= 0.03;
             if e.pinned() {
                 pinned += 1;
-                within += ((e.value - t).abs() <= 3.0 * e.std) as usize;
+                let inside = (e.value - t).abs() <= 3.0 * e.std;
+                within += inside as usize;
+                if !inside {
+                    *outside.entry(id.name()).or_insert(0usize) += 1;
+                }
             }
         }
         all_ok += ok as usize;
@@ -96,7 +101,7 @@ fn main() {
         pct(like_ok, like)
     );
     println!(
-        "pinned within 3 reported std: {:.1} % of {pinned}",
+        "pinned within 3 reported std: {:.1} % of {pinned}; outside, by parameter: {outside:?}",
         pct(within, pinned)
     );
     println!(

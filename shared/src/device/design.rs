@@ -1,7 +1,7 @@
 //! The commissioning experiment designed from the probe ([`crate::device::probe`]) and the
 //! limits: one voltage, and two records that share the board's record memory.
 //!
-//! - The **slow record** covers the mechanical mode: steps of ½ → 1 → ¼ of the voltage,
+//! - The **slow record** covers the mechanical mode: steps of ½ → ¼ → 1 of the voltage,
 //!   each a quarter of the record, then a coast-down over the last
 //!   quarter (seed Eq. 4 with i = 0 separates Coulomb from viscous friction), spanning
 //!   [`SLOW_SPAN`] mechanical time scales when the budget allows.
@@ -24,10 +24,14 @@ use crate::wire::protocol::Refusal;
 
 /// Share of the current limit the experiment's start current may reach.
 pub const CURRENT_SHARE: f32 = 0.7;
+
 /// Samples of the fast record per electrical time constant.
 pub const FAST_STEP: f32 = 20.0;
 /// Samples of the fast record at most.
 pub const FAST_SAMPLES: usize = 400;
+/// Waits for the shaft to stand still the records need: one before each.
+pub const QUIETS: f32 = 2.0;
+
 /// Mechanical time scales the slow record spans when the budget allows.
 pub const SLOW_SPAN: f32 = 6.0;
 /// Share of the budget the fast record may take at most.
@@ -59,7 +63,7 @@ impl RecordPlan {
 pub struct Design {
     /// Largest voltage [V].
     pub volts: f32,
-    /// The slow record (first: it takes over from the probe's mechanical step).
+    /// The slow record (first, from rest).
     pub slow: RecordPlan,
     /// The fast record.
     pub fast: RecordPlan,
@@ -113,7 +117,7 @@ pub fn design(
     let left = limits.budget
         - probed.seconds
         - fast.drive_samples() as f32 * dt
-        - QUIET_BUDGET * limits.budget;
+        - QUIETS * QUIET_BUDGET * limits.budget;
     let slow_span = (SLOW_SPAN * mechanical.tau_m).min(left).max(0.0);
     let slow_capacity = capacity - fast_samples;
     let step = whole(slow_span / (slow_capacity as f32 * dt));
@@ -170,7 +174,7 @@ mod tests {
             assert!(d.slow.samples + d.fast.samples <= 2000);
             let seconds = 3.0
                 + (d.slow.drive_samples() + d.fast.drive_samples()) as f32 * DT
-                + QUIET_BUDGET * limits.budget;
+                + QUIETS * QUIET_BUDGET * limits.budget;
             assert!(seconds <= limits.budget, "{tau_e} {tau_m}: {seconds} s");
             let fast_dt = d.fast.dt(DT);
             assert!(fast_dt <= (tau_e / 10.0).max(DT), "{tau_e}: {fast_dt}");

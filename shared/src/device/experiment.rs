@@ -22,11 +22,13 @@ pub const fn coast_start(n: usize) -> usize {
     n - n / 4
 }
 
-/// Input of sample `k` of the slow record of `n` samples: ½ → 1 → ¼ of `volts` over three
-/// equal parts of the first three quarters (seed
-/// Section 6 speed changes: each level a steady speed, so that the torque balance of seed
-/// Eq. 4 is seen at three speeds), then the bridge open over the last quarter (the
-/// coast-down: friction alone slows the shaft).
+/// Input of sample `k` of the slow record of `n` samples: ½ → ¼ → 1 of `volts` over three
+/// equal parts of the first three quarters (seed Section 6 speed changes: each level a
+/// steady speed, so that the torque balance of seed Eq. 4 is seen at three speeds, and the
+/// step down reverses the current against the back-EMF), then the bridge open over the last
+/// quarter: the coast-down, friction alone slowing the shaft, from the highest speed, where
+/// viscous friction B ω stands out most against Coulomb friction
+/// (`docs/measurements/commissioning.md`).
 pub fn slow_input(k: usize, n: usize, volts: f32) -> Bridge {
     let coast = coast_start(n);
     if k >= coast {
@@ -34,8 +36,8 @@ pub fn slow_input(k: usize, n: usize, volts: f32) -> Bridge {
     }
     let share = match 3 * k / coast.max(1) {
         0 => 0.5,
-        1 => 1.0,
-        _ => 0.25,
+        1 => 0.25,
+        _ => 1.0,
     };
     Bridge::Drive(share * volts)
 }
@@ -85,15 +87,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_slow_record_steps_half_full_quarter_then_coasts() {
+    fn the_slow_record_steps_half_quarter_full_then_coasts() {
         let (n, volts) = (2000, 48.0);
         let inputs: std::vec::Vec<Bridge> = (0..n).map(|k| slow_input(k, n, volts)).collect();
         assert_eq!(coast_start(n), 1500);
         assert_eq!(inputs[0], Bridge::Drive(24.0));
         assert_eq!(inputs[499], Bridge::Drive(24.0));
-        assert_eq!(inputs[500], Bridge::Drive(48.0));
-        assert_eq!(inputs[1000], Bridge::Drive(12.0));
-        assert_eq!(inputs[1499], Bridge::Drive(12.0));
+        assert_eq!(inputs[500], Bridge::Drive(12.0));
+        assert_eq!(inputs[1000], Bridge::Drive(48.0));
+        assert_eq!(inputs[1499], Bridge::Drive(48.0));
         assert!(inputs[1500..].iter().all(|b| *b == Bridge::Open));
     }
 

@@ -166,27 +166,32 @@ pub fn rest_and_offset<D: Drive, L: Link, W: Watchdog>(
     Err(JobEnd::Refused(Refusal::NotAtRest))
 }
 
-/// Drive 0 V until no current flows and the shaft stands (16 samples in a row), for at most
-/// `seconds`; then go on whatever the shaft does (a record may start in motion).
+/// Drive 0 V until no current flows and the shaft stands, for at most `seconds`; then go on
+/// whatever the shaft does (a record may start in motion). Judged on means over windows of
+/// [`REST_WINDOW`] samples, each within three of its deviations of zero (and 0.01 % of the
+/// limit): a heavy shaft still turning at a fraction of a radian per second reads as rest
+/// sample by sample, yet the fit would take it for rest, with a braking current that rest
+/// cannot have.
 pub fn quiet<D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
     rest: &Rest,
     seconds: f32,
 ) -> Result<(), JobEnd> {
+    let limits = bench.limits;
+    let n = REST_WINDOW as f32;
+    let within = |sigma: f32, limit: f32| 3.0 * sigma / libm::sqrtf(n) + 1e-4 * limit;
     let (still_w, no_i) = (
-        rest.motion(bench.limits.speed),
-        rest.no_current(bench.limits.current),
+        within(rest.sigma_omega, limits.speed),
+        within(rest.sigma_current, limits.current),
     );
-    let most = (seconds.max(0.0) / bench.dt()) as u32;
-    let mut calm = 0;
-    for _ in 0..most {
-        let s = bench.apply(Bridge::Drive(0.0))?;
-        calm = if s.omega.abs() <= still_w && s.current.abs() <= no_i {
-            calm + 1
-        } else {
-            0
-        };
-        if calm >= 16 {
+    let windows = (seconds.max(0.0) / (n * bench.dt())) as u32;
+    for _ in 0..windows.max(1) {
+        let (mut sw, mut si) = (0.0f32, 0.0f32);
+        for _ in 0..REST_WINDOW {
+            let s = bench.apply(Bridge::Drive(0.0))?;
+            (sw, si) = (sw + s.omega, si + s.current);
+        }
+        if (sw / n).abs() <= still_w && (si / n).abs() <= no_i {
             break;
         }
     }
@@ -326,8 +331,8 @@ pub struct Mechanical {
 /// ([`STEP_CURRENT`] of it at standstill, by the stage-3 Ra), watched until the speed
 /// settles (it rose under 3 % over the last third of the step), reaches [`SPEED_SHARE`] of
 /// its limit, or `seconds` pass. A shaft that never turns is refused
-/// ([`Refusal::NoMotion`]). The bridge stays driven at the step's voltage at its end: the
-/// experiment's slow record takes over from that state.
+/// ([`Refusal::NoMotion`]). The bridge stays driven at the step's voltage at its end; the
+/// experiment waits for the shaft to stand still before its records.
 #[inline(never)]
 pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,

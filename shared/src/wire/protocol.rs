@@ -148,8 +148,8 @@ pub struct Plan {
     pub slow_samples: u16,
     /// Time the probe took [s].
     pub probe_seconds: f32,
-    /// Time of the probe and the two records as planned [s] (the wait for the shaft to calm
-    /// between the records, at most 5 % of the budget, not counted).
+    /// Time of the probe and the two records as planned [s] (the waits for the shaft to
+    /// stand still before each record, at most 5 % of the budget each, not counted).
     pub planned_seconds: f32,
 }
 
