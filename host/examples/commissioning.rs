@@ -4,7 +4,8 @@
 //! current on the limits' scales, sensor noise and Coulomb friction of 5 % of the torque the
 //! drive allows.
 //!
-//! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ] [--verbose]`
+//! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ]
+//! [--adc-bits N (12; 0: no quantisation)] [--verbose]`
 
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
@@ -24,6 +25,12 @@ fn main() {
         .and_then(|k| args.get(k + 1))
         .and_then(|r| r.parse().ok())
         .unwrap_or(20_000.0);
+    let adc_bits: u32 = args
+        .iter()
+        .position(|a| a == "--adc-bits")
+        .and_then(|k| args.get(k + 1))
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(12);
     let verbose = args.iter().any(|a| a == "--verbose");
     let limits = Limits::DEFAULT;
     let mut refusals: BTreeMap<String, usize> = BTreeMap::new();
@@ -41,7 +48,9 @@ fn main() {
         let looks_like_motor = kv * kv >= 3.0 * ra * b && la / ra < tau_m;
         let mut plant =
             SimulatedPlant::new(&truth, 1.0 / rate, 0.1, 0.005, m as u64 + 1).expect("plant");
-        (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(12);
+        if adc_bits > 0 {
+            (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(adc_bits);
+        }
         let c = commission(plant, limits, 1, None, &mut |_| {});
         seconds.push(c.seconds);
         like += looks_like_motor as usize;

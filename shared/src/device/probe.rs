@@ -29,6 +29,11 @@ use crate::wire::protocol::Refusal;
 
 /// Samples of one look at the shaft at rest.
 const REST_WINDOW: u32 = 64;
+/// Time over which the current sensor's offset is averaged [s] (at least [`REST_WINDOW`]
+/// readings): the records' currents carry what is left of the offset as a constant error the
+/// fit does not model, so it must lie well under the fit's own resolution of a constant
+/// (σ over the square root of the records' samples).
+const OFFSET_SECONDS: f32 = 0.25;
 /// Longest wait for the shaft to stand still before anything is applied [s].
 const REST_SECONDS: f32 = 20.0;
 /// Largest current sensor offset taken for an offset rather than a fault (share of the
@@ -148,11 +153,12 @@ pub fn rest_and_offset<D: Drive, L: Link, W: Watchdog>(
         // -Kv ω / Ra, which would be taken for the sensor's offset).
         if w.abs() <= motion_threshold(libm::sqrtf(var_w), limits.speed) && still {
             // The offset with the bridge open: no current can flow, whatever the shaft does.
+            let readings = ((OFFSET_SECONDS / bench.dt()) as u32).max(REST_WINDOW);
             let mut offset = 0.0f32;
-            for _ in 0..REST_WINDOW {
+            for _ in 0..readings {
                 offset += bench.apply(Bridge::Open)?.current;
             }
-            let offset = offset / n;
+            let offset = offset / readings as f32;
             if offset.abs() > MAX_OFFSET * limits.current {
                 return Err(JobEnd::Refused(Refusal::SensorFault));
             }
