@@ -1,5 +1,5 @@
 //! Benchmark of the identification pipelines (not a test): random motors drawn log-uniformly
-//! from the seed's Table 1 box, a `steps` experiment of 2,000 samples with 1 % noise, and for
+//! from the paper's Table 1 box, a `steps` experiment of 2,000 samples with 1 % noise, and for
 //! each pipeline the success rate (fit RMSE within 1 % of the noise floor) and the median
 //! evaluations to get there, plus host time per identification.
 //!
@@ -114,7 +114,7 @@ fn main() {
     let cases: Vec<TableOneCase> = (1..=motors)
         .map(|seed| TableOneCase::new(seed, SAMPLES))
         .collect();
-    println!("{motors} motors log-uniform in seed Table 1, steps profile, {SAMPLES} samples, 1 % noise\n");
+    println!("{motors} motors log-uniform in paper's Table 1, steps profile, {SAMPLES} samples, 1 % noise\n");
     println!("| pipeline | data | success (RMSE <= 1.01 floor) | median evaluations to floor | median evaluations total | all params within 1 % | all 5 pinned | pinned params within 3 reported std | motors whose search was widened | median host time |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut pipelines = vec![
@@ -135,11 +135,11 @@ fn main() {
         let towards = IdentifyConfig {
             ffo: FfoConfig {
                 soil: Soil::TowardsBest,
-                ..FfoConfig::SEED
+                ..FfoConfig::PAPER
             },
             ..IdentifyConfig::paper_faithful(1)
         };
-        pipelines.push(("seed settings, soil towards best", towards));
+        pipelines.push(("paper's settings, soil towards best", towards));
     }
     for (name, cfg) in pipelines {
         for with_current in [true, false] {

@@ -1,4 +1,4 @@
-//! Benchmark of self-commissioning (not a test): motors drawn log-uniformly from the seed's
+//! Benchmark of self-commissioning (not a test): motors drawn log-uniformly from the paper's
 //! Table 1 box, each commissioned on the virtual board (the board's own commissioning code
 //! against the simulated plant) with the default limits, 12-bit quantisation of tacho and
 //! current on the limits' scales, sensor noise and Coulomb friction of 5 % of the torque the

@@ -20,25 +20,25 @@ enum Command {
     Simulate(simulate::SimulateArgs),
     /// Identify motor parameters from one or more record CSVs (fitted jointly).
     Identify(identify::IdentifyArgs),
-    /// Convert an oscilloscope CSV of tacho volts into a record CSV (the seed's workflow).
+    /// Convert an oscilloscope CSV of tacho volts into a record CSV (the paper's workflow).
     ImportScope(import_scope::ScopeArgs),
     /// Locate the sim-to-real gap: where the model misfits, which unmodelled effect causes it,
     /// how far the misfit shrinks with it, judged on held-out records.
     Diagnose(diagnose::DiagnoseArgs),
-    /// Check identified parameters on new records (seed Figs. 11-14): the prediction's
+    /// Check identified parameters on new records (paper's Figs. 11-14): the prediction's
     /// misfit against each record's noise, and where it misfits most.
     Validate(validate::ValidateArgs),
     /// Current-loop and speed-loop PI gains from identified parameters, with their step
     /// responses on the identified model.
     Tune(tune::TuneArgs),
-    /// Compare optimisers on the same records, objective and budget (seed Table 3).
+    /// Compare optimisers on the same records, objective and budget (paper's Table 3).
     Compare(compare::CompareArgs),
     /// Talk to a drive board (or its QEMU build) over a serial port.
     Board(board::BoardArgs),
     /// Commission a simulated motor on the virtual board: the board's own probe, experiment
     /// and fit, run on the host (try a motor and the limits before flashing a board).
     Commission(commission::CommissionArgs),
-    /// Run the whole job on a built-in default: the seed's motor, simulated, identified from
+    /// Run the whole job on a built-in default: the paper's motor, simulated, identified from
     /// speed only (seed workflow) and from speed and current.
     Demo(demo::DemoArgs),
 }

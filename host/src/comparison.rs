@@ -1,5 +1,5 @@
-//! The seed paper's Table 3 on the user's records: several optimisers on the same objective
-//! (seed Eq. 7, noise-weighted with current), in the same unit cube of the search space, with
+//! The paper's Table 3 on the user's records: several optimisers on the same objective
+//! (paper Eq. 7, noise-weighted with current), in the same unit cube of the search space, with
 //! the same evaluation budget, over several seeds: the paper-faithful FFO, this tool's
 //! pipelines, and established optimisers of the `argmin` crate (Nelder-Mead and particle
 //! swarm; its gradient methods need a gradient the simulation does not give, and finite
@@ -22,7 +22,7 @@ use std::time::Instant;
 /// The optimisers compared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Optimiser {
-    /// The seed's FFO as the paper describes it (soil step away from the best), cut to the
+    /// The paper's FFO as the paper describes it (soil step away from the best), cut to the
     /// budget.
     PaperFfo,
     /// The default pipeline (start and least squares, a short FFO above the noise).
@@ -62,7 +62,7 @@ impl Optimiser {
 pub struct Run {
     /// Random seed.
     pub seed: u64,
-    /// Best fitness found (seed Eq. 7's RMSE; noise-weighted with current).
+    /// Best fitness found (paper Eq. 7's RMSE; noise-weighted with current).
     pub fitness: f64,
     /// Evaluations spent.
     pub evaluations: u32,
@@ -153,9 +153,9 @@ pub fn run(
     match optimiser {
         Optimiser::PaperFfo => {
             let mut cfg = IdentifyConfig::paper_faithful(seed);
-            // Each iteration evaluates the population twice (seed Eq. 13-16 and the soil
+            // Each iteration evaluates the population twice (paper Eq. 13-16 and the soil
             // step): the iterations that fit the budget after the first population and the
-            // final evaluation of the best (the seed's 100 + 200 x 200 + 1 = 40,101).
+            // final evaluation of the best (the paper's 100 + 200 x 200 + 1 = 40,101).
             let n = cfg.ffo.population() as u32;
             cfg.ffo.iterations = (budget.saturating_sub(n + 1) / (2 * n)).max(1);
             pipeline(cfg)

@@ -17,7 +17,7 @@ use std::ops::ControlFlow;
 /// Options shared by the fitting commands.
 #[derive(Args, Debug, Clone, Default)]
 pub struct FitOptions {
-    /// Search bounds, e.g. `ra=0.5:10,j=1e-6:1e-3` (default: seed Table 1). Bounds on an
+    /// Search bounds, e.g. `ra=0.5:10,j=1e-6:1e-3` (default: paper's Table 1). Bounds on an
     /// effect parameter (e.g. `tc=0:0.1`) fit that effect.
     #[arg(long, value_name = "P=LO:HI,...", value_parser = parse_bounds)]
     pub bounds: Vec<BoundsSpec>,
@@ -27,7 +27,7 @@ pub struct FitOptions {
     /// Random seed (same seed and data, same result).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Ignore the current column (fit speed only, as the seed does).
+    /// Ignore the current column (fit speed only, as the paper does).
     #[arg(long)]
     pub speed_only: bool,
     /// No progress bar.
@@ -39,11 +39,11 @@ pub struct FitOptions {
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PipelineArg {
     /// Equation-error start and least squares; a short FFO above the noise floor, then
-    /// wider ones up to the seed's.
+    /// wider ones up to the paper's.
     Default,
     /// The same within a board's memory (its escalation: the short FFO run longer).
     Board,
-    /// The seed's FFO alone.
+    /// The paper's FFO alone.
     Paper,
 }
 

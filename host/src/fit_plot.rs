@@ -90,7 +90,7 @@ pub fn plot_fit(path: &Path, records: &[OwnedRecord], f: &Fit) -> Result<()> {
             spans: vec![],
         },
         Panel {
-            title: "convergence (seed Fig. 10)".into(),
+            title: "convergence (paper's Fig. 10)".into(),
             x_label: "model evaluations",
             y_label: if f.with_current {
                 "best fitness [noise-weighted, in speed units]"

@@ -1,4 +1,4 @@
-//! `motor-id`: identify DC motor parameters (seed paper: FFO on the speed RMSE, Eq. 7) from
+//! `motor-id`: identify DC motor parameters (paper: FFO on the speed RMSE, Eq. 7) from
 //! recorded or simulated data, with an honest identifiability report.
 
 mod board_records;

@@ -18,11 +18,11 @@ const MAX_SAMPLES: usize = 20_000_000;
 /// The experiments by name (`motor_id_shared::model::profile::Profile`).
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ProfileArg {
-    /// Voltage step from rest (seed Figs. 9, 11).
+    /// Voltage step from rest (paper's Figs. 9, 11).
     Start,
-    /// Half voltage, up to full at 1/3, down to a quarter at 2/3 (seed Figs. 13-14).
+    /// Half voltage, up to full at 1/3, down to a quarter at 2/3 (paper's Figs. 13-14).
     Steps,
-    /// Full voltage, a known load torque step at half time (seed Fig. 12).
+    /// Full voltage, a known load torque step at half time (paper's Fig. 12).
     Load,
     /// Full voltage, reversed to minus full voltage at half time.
     Reversal,
@@ -42,7 +42,7 @@ impl From<ProfileArg> for Profile {
 /// A simulated experiment (the arguments of `simulate`).
 #[derive(Args, Debug, Clone)]
 pub struct SimulateArgs {
-    /// Motor parameters `ra=..,la=..,j=..,b=..,kv=..` (default: the seed's identified motor
+    /// Motor parameters `ra=..,la=..,j=..,b=..,kv=..` (default: the paper's identified motor
     /// ra=3.412,la=0.0573,j=0.0424,b=0.00267,kv=0.1604).
     #[arg(long, value_name = "ra=..,la=..,j=..,b=..,kv=..", value_parser = parse_motor)]
     pub motor: Option<ModelParams>,
@@ -87,7 +87,7 @@ pub struct SimulateArgs {
 
 /// Build the simulated record described by `a`.
 pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
-    let mut p = a.motor.unwrap_or(ModelParams::SEED_MOTOR);
+    let mut p = a.motor.unwrap_or(ModelParams::PAPER_MOTOR);
     for e in &a.effect {
         e.apply(&mut p)?;
     }

@@ -45,7 +45,7 @@ fn param(name: &str) -> Result<ParamId, String> {
 /// `--motor ra=..,la=..,j=..,b=..,kv=..`: all five motor parameters, nothing else (a clap
 /// value parser).
 pub fn parse_motor(text: &str) -> Result<ModelParams, String> {
-    let mut p = ModelParams::SEED_MOTOR;
+    let mut p = ModelParams::PAPER_MOTOR;
     let mut seen = [false; 5];
     for (k, v) in pairs(text)? {
         let id = param(k)?;
@@ -194,7 +194,7 @@ pub fn parse_fix(text: &str) -> Result<FixSpec, String> {
     Ok(FixSpec(out))
 }
 
-/// Apply `--bounds` and `--fix` to the default problem (seed Table 1, motor free). Bounds on
+/// Apply `--bounds` and `--fix` to the default problem (paper's Table 1, motor free). Bounds on
 /// an effect parameter free it (the effect is fitted).
 pub fn problem(bounds: &[BoundsSpec], fix: &[FixSpec]) -> Result<ProblemSpec> {
     let mut spec = ProblemSpec::default();
@@ -275,7 +275,7 @@ mod tests {
 
     #[test]
     fn effects() {
-        let mut p = ModelParams::SEED_MOTOR;
+        let mut p = ModelParams::PAPER_MOTOR;
         parse_effect("tacho_ripple:amp=0.02,cycles=8")
             .unwrap()
             .apply(&mut p)

@@ -42,7 +42,7 @@ fn parse_any(text: &str) -> TestCaseResult {
                 let (lo, hi) = id.physical_range();
                 prop_assert!(x.is_finite() && lo <= x && x <= hi, "{text:?}: {id:?} {x}");
             }
-            let mut p = ModelParams::SEED_MOTOR;
+            let mut p = ModelParams::PAPER_MOTOR;
             if let Err(e) = spec.apply(&mut p) {
                 one_line(text, &format!("{e:#}"))?;
             }

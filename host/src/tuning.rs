@@ -220,7 +220,7 @@ mod tests {
 
     #[test]
     fn the_rules_give_the_textbook_gains() {
-        let p = ModelParams::SEED_MOTOR;
+        let p = ModelParams::PAPER_MOTOR;
         let g = gains(&p, &design()).unwrap();
         let wc = std::f64::consts::TAU * 200.0;
         // The parameters are f32: agreement to f32 precision.
@@ -240,14 +240,14 @@ mod tests {
             current_bandwidth_hz: 2000.0,
             ..design()
         };
-        assert!(gains(&ModelParams::SEED_MOTOR, &d).is_err());
+        assert!(gains(&ModelParams::PAPER_MOTOR, &d).is_err());
     }
 
     #[test]
     fn the_closed_loops_meet_the_asked_bandwidth_on_the_model() {
-        // The seed's motor and a fast one, with Coulomb friction on the second.
+        // The paper's motor and a fast one, with Coulomb friction on the second.
         let fast = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08).with(ParamId::Tc, 0.01);
-        for (p, fc) in [(ModelParams::SEED_MOTOR, 200.0), (fast, 400.0)] {
+        for (p, fc) in [(ModelParams::PAPER_MOTOR, 200.0), (fast, 400.0)] {
             let d = Design {
                 current_bandwidth_hz: fc,
                 ..design()

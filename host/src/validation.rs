@@ -80,7 +80,7 @@ pub fn read_params(path: &Path) -> Result<ModelParams> {
                 .ok_or_else(|| anyhow!("{}: {} is not a number", path.display(), id.name())),
         }
     };
-    let mut p = ModelParams::SEED_MOTOR;
+    let mut p = ModelParams::PAPER_MOTOR;
     for id in ParamId::ALL {
         match value(id)? {
             Some(x) => p.set(id, x),

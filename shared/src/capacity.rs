@@ -2,7 +2,7 @@
 //! is sized here).
 //!
 //! Two sets, chosen by [`FULL`]. With the `full` feature (the host, and this crate's own
-//! tests): every effect can be fitted, the seed's population of 100 (paper-faithful mode),
+//! tests): every effect can be fitted, the paper's population of 100 (paper-faithful mode),
 //! a tacho delay line and a convergence trace. Without it (the firmware): what a board
 //! identifies, the five motor parameters and Coulomb friction (commissioning) with the
 //! default and board pipelines, in a few kilobytes of stack. The arithmetic does not depend
@@ -25,13 +25,13 @@ pub const MAX_FREE: usize = if FULL { PARAM_COUNT } else { 6 };
 /// a simulator is copied a dozen times into every Jacobian, so a board keeps it small).
 pub const SIM_EFFECT_PARAMS: usize = if FULL { PARAM_COUNT - 5 } else { 1 };
 
-/// Largest FFO population (host: the seed's 4 x 25; board: the default pipeline's 2 x 8).
+/// Largest FFO population (host: the paper's 4 x 25; board: the default pipeline's 2 x 8).
 pub const MAX_POPULATION: usize = if FULL { 100 } else { 16 };
 
 /// Longest tacho delay the simulator can represent, in samples (none on a board).
 pub const MAX_DELAY_SAMPLES: usize = if FULL { 126 } else { 0 };
 
-/// Longest convergence trace kept (host: the seed's 200 iterations plus refinement; a board
+/// Longest convergence trace kept (host: the paper's 200 iterations plus refinement; a board
 /// reports progress as it goes and keeps none).
 pub const TRACE_CAPACITY: usize = if FULL { 256 } else { 0 };
 

@@ -1,6 +1,8 @@
-//! motor-id core: a fixed-step DC motor model (seed Eq. 1-5) with optional unmodelled
-//! effects, the Farmland Fertility Optimizer in fixed memory (seed Eq. 8-16), least-squares
+//! motor-id core: a fixed-step DC motor model (paper Eq. 1-5) with optional unmodelled
+//! effects, the Farmland Fertility Optimizer in fixed memory (paper Eq. 8-16), least-squares
 //! refinement, identification with an identifiability report, and the host/board messages.
+//! The paper: H. Abdel-Maksoud, *DC Motor Parameters Identification Using Farmland Fertility
+//! Optimizer*; equation numbers ("paper Eq. N") refer to it.
 //!
 //! `no_std` without an allocator (builds for `thumbv7em-none-eabihf`); tests and the `std`
 //! feature use the standard library. All arithmetic on signals is f32 with no fused

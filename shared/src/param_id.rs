@@ -1,4 +1,4 @@
-//! The names of every model parameter: the five of seed Eq. 1-5 and those of the effects,
+//! The names of every model parameter: the five of paper Eq. 1-5 and those of the effects,
 //! and the shape of what is known of each ([`ParamSpec`]). A vocabulary with no dependency,
 //! so that errors, capacities and the model can all name a parameter; the specs themselves
 //! live with the model ([`crate::model::params`], [`crate::model::effects`]).
@@ -9,15 +9,15 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ParamId {
-    /// Armature resistance Ra [ohm] (seed Eq. 1).
+    /// Armature resistance Ra [ohm] (paper Eq. 1).
     Ra,
-    /// Armature inductance La [H] (seed Eq. 1).
+    /// Armature inductance La [H] (paper Eq. 1).
     La,
-    /// Rotor inertia J [kg m^2] (seed Eq. 4).
+    /// Rotor inertia J [kg m^2] (paper Eq. 4).
     J,
-    /// Viscous friction B [N m s/rad] (seed Eq. 4).
+    /// Viscous friction B [N m s/rad] (paper Eq. 4).
     B,
-    /// Back-EMF / torque constant Kv [V s/rad] (seed Eq. 3).
+    /// Back-EMF / torque constant Kv [V s/rad] (paper Eq. 3).
     Kv,
     /// Coulomb friction torque [N m] (`coulomb_friction`).
     Tc,
@@ -76,7 +76,7 @@ impl ParamId {
         ParamId::Ib,
         ParamId::Io,
     ];
-    /// The five motor parameters of seed Eq. 5, in the order (Ra, La, J, B, Kv).
+    /// The five motor parameters of paper Eq. 5, in the order (Ra, La, J, B, Kv).
     pub const MOTOR: [ParamId; 5] = [
         ParamId::Ra,
         ParamId::La,
@@ -110,7 +110,7 @@ pub struct ParamSpec {
     pub key: &'static str,
     /// Unit, as printed (empty for a ratio).
     pub unit: &'static str,
-    /// Default search range: seed Table 1 for the motor parameters, a generous range for an
+    /// Default search range: paper's Table 1 for the motor parameters, a generous range for an
     /// effect's (a fit usually narrows it to the motor at hand).
     pub default_bounds: (f32, f32),
     /// Smallest and largest physically meaningful value (inclusive), used to validate user

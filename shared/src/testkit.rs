@@ -19,15 +19,15 @@ pub struct Owned {
 }
 
 impl Owned {
-    /// The seed's motor run through `profile` at 50 V for `n` samples of `dt`.
-    pub fn seed_motor(profile: Profile, dt: f32, n: usize, noise: Noise, seed: u64) -> Owned {
+    /// The paper's motor run through `profile` at 50 V for `n` samples of `dt`.
+    pub fn paper_motor(profile: Profile, dt: f32, n: usize, noise: Noise, seed: u64) -> Owned {
         let exp = Experiment {
             profile,
             voltage: 50.0,
             duration: dt * n as f32,
             load_torque: 0.0,
         };
-        Owned::new(&ModelParams::SEED_MOTOR, exp, dt, n, noise, seed)
+        Owned::new(&ModelParams::PAPER_MOTOR, exp, dt, n, noise, seed)
     }
 
     /// `n` samples of `dt`, all zero, no coast-down.

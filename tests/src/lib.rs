@@ -104,9 +104,9 @@ pub fn run_usage_err(args: &[&str]) -> String {
     stderr
 }
 
-/// The seed's experiment: a start from rest read on the tacho only (100 Hz, 20 s,
+/// The paper's experiment: a start from rest read on the tacho only (100 Hz, 20 s,
 /// 0.2 rad/s noise), as `simulate` arguments.
-pub const SEED_START: &[&str] = &[
+pub const PAPER_START: &[&str] = &[
     "--profile",
     "start",
     "--rate",
@@ -118,9 +118,9 @@ pub const SEED_START: &[&str] = &[
     "0.2",
 ];
 
-/// The seed paper's motor with Coulomb friction of 0.05 N m, by parameter name: the QEMU
+/// The paper's motor with Coulomb friction of 0.05 N m, by parameter name: the QEMU
 /// build's default plant and `commission --sim`'s default with `coulomb_friction:tc=0.05`.
-pub const SEED_WITH_FRICTION: [(&str, f32); 6] = [
+pub const PAPER_WITH_FRICTION: [(&str, f32); 6] = [
     ("ra", 3.412),
     ("la", 0.0573),
     ("j", 0.0424),
@@ -140,7 +140,7 @@ pub fn assert_within_3_percent(r: &Value, motor: &[(&str, f32)]) {
     }
 }
 
-/// A record for the board: 2,000 samples of the seed's motor (steps, 100 Hz, 20 s) with
+/// A record for the board: 2,000 samples of the paper's motor (steps, 100 Hz, 20 s) with
 /// speed and current noise, written to `dir/board-record.csv`.
 pub fn board_record(dir: &Path) -> PathBuf {
     let csv = dir.join("board-record.csv");

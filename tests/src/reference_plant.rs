@@ -1,4 +1,4 @@
-//! An independent reference plant: a brushed DC motor (seed Eq. 1-5: `La di/dt = v - Ra i -
+//! An independent reference plant: a brushed DC motor (paper Eq. 1-5: `La di/dt = v - Ra i -
 //! Kv w`, `J dw/dt = Kv i - B w - TL`) with optional effects, integrated by its own RK4 on a
 //! fine substep, read by its own sensors, and written as a record CSV (`docs/CONTRACTS.md`)
 //! for `motor-id identify` and `diagnose`.
@@ -29,7 +29,7 @@ use dynamics::Dynamics;
 /// the tests use, so RK4's error (fifth order in the step) is far below f32 rounding.
 pub const SUBSTEPS: usize = 32;
 
-/// Motor parameters of seed Eq. 1-4 [ohm, H, kg m^2, N m s/rad, V s/rad].
+/// Motor parameters of paper Eq. 1-4 [ohm, H, kg m^2, N m s/rad, V s/rad].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Motor {
     /// Armature resistance.
@@ -45,8 +45,8 @@ pub struct Motor {
 }
 
 impl Motor {
-    /// The seed paper's identified motor.
-    pub const SEED: Motor = Motor {
+    /// The paper's identified motor.
+    pub const PAPER: Motor = Motor {
         ra: 3.412,
         la: 0.0573,
         j: 0.0424,
@@ -67,7 +67,7 @@ impl Motor {
         [self.ra, self.la, self.j, self.b, self.kv]
     }
 
-    /// Steady speed at constant voltage `v` (seed Eq. 1-4 with the derivatives at zero):
+    /// Steady speed at constant voltage `v` (paper Eq. 1-4 with the derivatives at zero):
     /// `Kv v / (Ra B + Kv^2)`.
     pub fn steady_speed(&self, v: f64) -> f64 {
         self.kv * v / (self.ra * self.b + self.kv * self.kv)

@@ -1,4 +1,4 @@
-//! With speed and current, motors across the seed's Table 1 box are recovered within 1 % when
+//! With speed and current, motors across the paper's Table 1 box are recovered within 1 % when
 //! the record resolves them; where it cannot, the report says which parameter is not pinned.
 
 use motor_id_tests::{json, param, rel, run_ok, s};

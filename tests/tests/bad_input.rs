@@ -421,7 +421,7 @@ fn a_scope_step_outside_the_trace_is_refused() {
 
 #[test]
 fn diagnose_warns_of_a_held_out_record_of_another_motor() {
-    // Trained on the seed motor, held out on a motor with three times its Kv: the baseline
+    // Trained on the paper's motor, held out on a motor with three times its Kv: the baseline
     // predicts the held-out record hundreds of times its noise, the training records to it.
     let d = tempfile::tempdir().unwrap();
     let (train, other) = (d.path().join("train.csv"), d.path().join("other.csv"));

@@ -11,7 +11,7 @@ use motor_id_shared::wire::protocol::Refusal;
 use motor_id_shared::ModelParams;
 use motor_id_tests::reference_plant::drive::ReferenceDrive;
 use motor_id_tests::reference_plant::{Effects, Motor};
-use motor_id_tests::{assert_within_3_percent, json, run, run_err, run_ok, s, SEED_WITH_FRICTION};
+use motor_id_tests::{assert_within_3_percent, json, run, run_err, run_ok, s, PAPER_WITH_FRICTION};
 
 /// The drive's sample rate in these tests [Hz].
 const RATE: f64 = 5_000.0;
@@ -38,7 +38,7 @@ fn corners_of_the_box_commission_within_three_percent_on_the_reference_plant() {
     // pinned (the commissioning benchmark counts those).
     let limits = Limits::DEFAULT;
     let corners = [
-        Motor::SEED,
+        Motor::PAPER,
         Motor {
             ra: 0.5,
             la: 0.01,
@@ -121,10 +121,10 @@ fn a_heavy_shaft_still_turning_as_the_electrical_step_starts_gives_its_resistanc
 
 #[test]
 fn a_motor_whose_break_away_needs_more_than_the_current_limit_is_refused_before_a_trip() {
-    // The seed motor with friction of 1.2 times the torque 40 A gives.
+    // The paper's motor with friction of 1.2 times the torque 40 A gives.
     let limits = Limits::DEFAULT;
-    let tc = 1.2 * Motor::SEED.kv * limits.current as f64;
-    let mut d = drive(Motor::SEED, tc, 9);
+    let tc = 1.2 * Motor::PAPER.kv * limits.current as f64;
+    let mut d = drive(Motor::PAPER, tc, 9);
     let c = commission(&mut d, limits, 1, None, &mut |_| {});
     assert_eq!(c.result.unwrap_err(), JobEnd::Refused(Refusal::NoMotion));
     assert!(d.largest.0 < limits.current as f64, "{} A", d.largest.0);
@@ -149,7 +149,7 @@ fn commission_sim_reports_the_motor_its_plan_and_its_records() {
         "-q",
     ]);
     let r = json(&report);
-    assert_within_3_percent(&r["motor"], &SEED_WITH_FRICTION);
+    assert_within_3_percent(&r["motor"], &PAPER_WITH_FRICTION);
     assert!(r["experiment_seconds"].as_f64().unwrap() <= 60.0, "{r}");
     assert!(r["plan"]["ra"].as_f64().unwrap() > 0.0, "{r}");
     // The board's records, as record CSVs that identify reads.

@@ -15,7 +15,7 @@ struct Motor {
     effects: [&'static str; 6],
 }
 
-const SEED: Motor = Motor {
+const PAPER: Motor = Motor {
     spec: "ra=3.412,la=0.0573,j=0.0424,b=0.00267,kv=0.1604",
     noise: ("0.2", "0.05"),
     rate: "200",
@@ -138,7 +138,7 @@ fn in_parallel<T: Send>(cases: Vec<Case<T>>) -> Vec<T> {
 #[test]
 fn each_effect_is_named_on_two_motors_and_two_noise_levels_with_held_out_regimes() {
     let mut cases: Vec<Case<(String, String, Value)>> = Vec::new();
-    for motor in [&SEED, &SMALL, &NOISY] {
+    for motor in [&PAPER, &SMALL, &NOISY] {
         for effect in motor.effects {
             cases.push(Box::new(move || {
                 let r = diagnose(motor, Some(effect), false, 1);
@@ -215,7 +215,9 @@ fn each_effect_is_named_on_two_motors_and_two_noise_levels_with_held_out_regimes
 fn records_without_an_effect_get_a_null_verdict() {
     let mut cases: Vec<Case<(u64, Value)>> = Vec::new();
     for seed in [1u64, 2] {
-        cases.push(Box::new(move || (seed, diagnose(&SEED, None, false, seed))));
+        cases.push(Box::new(move || {
+            (seed, diagnose(&PAPER, None, false, seed))
+        }));
         cases.push(Box::new(move || {
             (seed, diagnose(&SMALL, None, false, seed))
         }));
@@ -250,7 +252,7 @@ fn speed_only_records_name_the_effect_and_say_what_they_cannot_support() {
     // Without current, a voltage-only training set pins three combinations only; the
     // held-out reversal is driven by voltage too, so it can judge the effect.
     let r = diagnose_on(
-        &SEED,
+        &PAPER,
         Some("coulomb_friction:tc=0.02"),
         true,
         3,
@@ -273,7 +275,7 @@ fn speed_only_records_name_the_effect_and_say_what_they_cannot_support() {
         "{notes:?}"
     );
     // A held-out load step is another matter: its response depends on what is not pinned.
-    let r = diagnose_on(&SEED, Some("coulomb_friction:tc=0.02"), true, 3, &["load"]);
+    let r = diagnose_on(&PAPER, Some("coulomb_friction:tc=0.02"), true, 3, &["load"]);
     let notes: Vec<&str> = r["cannot_support"]
         .as_array()
         .unwrap()
@@ -289,7 +291,7 @@ fn speed_only_records_name_the_effect_and_say_what_they_cannot_support() {
 #[test]
 fn where_points_at_the_regimes_and_signatures() {
     // A fan load grows with speed: the misfit concentrates at high speed.
-    let r = diagnose(&SEED, Some("quadratic_load:kq=4e-6"), false, 4);
+    let r = diagnose(&PAPER, Some("quadratic_load:kq=4e-6"), false, 4);
     let regimes = r["where"]["regimes"].as_array().unwrap();
     let top = regimes[0]["name"].as_str().unwrap();
     assert!(!top.is_empty());
@@ -335,7 +337,7 @@ fn a_repeat_run_held_out_is_predicted_to_its_repeatability_floor() {
                 &path,
                 &[
                     "--motor",
-                    SEED.spec,
+                    PAPER.spec,
                     "--profile",
                     profile,
                     "--rate",

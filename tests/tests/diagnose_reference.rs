@@ -9,13 +9,13 @@ use motor_id_tests::reference_plant::{
 use serde_json::Value;
 use std::path::Path;
 
-/// The seed motor at 10 V (stall torque 0.47 N m, top speed 43 rad/s), 200 Hz, 40 s per
+/// The paper's motor at 10 V (stall torque 0.47 N m, top speed 43 rad/s), 200 Hz, 40 s per
 /// record (five slowest time constants per step).
 const VOLTS: f64 = 10.0;
 const RATE: f64 = 200.0;
 const DURATION: f64 = 40.0;
 
-/// Records of the seed motor with `effects`, read by `speed`: trained on a ramp (the shaft
+/// Records of the paper's motor with `effects`, read by `speed`: trained on a ramp (the shaft
 /// breaks away part-way), voltage steps and a reversal, held out on another reversal and
 /// ramp; then `diagnose` with `extra` arguments. Returns the JSON report.
 fn diagnose(dir: &Path, effects: Effects, speed: SpeedSensor, extra: &[&str]) -> Value {
@@ -35,7 +35,7 @@ fn diagnose(dir: &Path, effects: Effects, speed: SpeedSensor, extra: &[&str]) ->
             seed,
         };
         let r = run(
-            Motor::SEED,
+            Motor::PAPER,
             effects,
             sensors,
             experiment(shape, VOLTS, RATE, DURATION),

@@ -1,6 +1,6 @@
-//! The fit plot and the oscilloscope import of the seed's workflow.
+//! The fit plot and the oscilloscope import of the paper's workflow.
 
-use motor_id_tests::{json, param, rel, run_ok, s, simulate, SEED_START};
+use motor_id_tests::{json, param, rel, run_ok, s, simulate, PAPER_START};
 
 #[test]
 fn identify_writes_a_png_plot() {
@@ -32,11 +32,11 @@ fn identify_writes_a_png_plot() {
 
 #[test]
 fn scope_trace_of_tacho_volts_is_imported_and_identified() {
-    // A record of the seed's motor turned into what the seed's oscilloscope saved: settings
+    // A record of the paper's motor turned into what the paper's oscilloscope saved: settings
     // lines, a units header, time from -1 s, tacho volts at 35 rad/s/V, inverted.
     let d = tempfile::tempdir().unwrap();
     let csv = d.path().join("rec.csv");
-    simulate(&csv, &[SEED_START, &["--voltage", "48"]].concat());
+    simulate(&csv, &[PAPER_START, &["--voltage", "48"]].concat());
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut scope = String::from("HMO2024 trace\nin s,CH1[V]\n");
     for k in 0..100 {

@@ -6,7 +6,7 @@ use motor_id_shared::wire::protocol::{
     BoardMessage, HostMessage, PipelineName, Refusal, CHUNK, PROTOCOL_VERSION,
 };
 use motor_id_tests::{
-    assert_within_3_percent, board_record, json, run, run_err, run_ok, s, Qemu, SEED_WITH_FRICTION,
+    assert_within_3_percent, board_record, json, run, run_err, run_ok, s, Qemu, PAPER_WITH_FRICTION,
 };
 use std::io::{Read, Write};
 use std::time::Duration;
@@ -60,10 +60,10 @@ fn board_identify_is_bit_identical_to_host_identify() {
     run_ok(&q.board_args(&["hello"]));
 }
 
-/// The QEMU build's default plant is the seed paper's motor with Coulomb friction
-/// ([`SEED_WITH_FRICTION`]), which commissioning identifies from its coast-down.
-fn assert_seed_motor(r: &serde_json::Value) {
-    assert_within_3_percent(r, &SEED_WITH_FRICTION);
+/// The QEMU build's default plant is the paper's motor with Coulomb friction
+/// ([`PAPER_WITH_FRICTION`]), which commissioning identifies from its coast-down.
+fn assert_paper_motor(r: &serde_json::Value) {
+    assert_within_3_percent(r, &PAPER_WITH_FRICTION);
 }
 
 #[test]
@@ -74,13 +74,13 @@ fn first_power_up_commissions_and_the_host_commissions_again_after_clear() {
     // Power-up found no parameters and commissioned the plant by itself (the host waits
     // while the board is busy).
     run_ok(&q.board_args(&["--json", s(&boot), "params"]));
-    assert_seed_motor(&json(&boot));
+    assert_paper_motor(&json(&boot));
     run_ok(&q.board_args(&["clear"]));
     let out = run_ok(&q.board_args(&["params"]));
     assert!(out.contains("no parameters stored"), "{out}");
     run_ok(&q.board_args(&["--json", s(&again), "-q", "commission"]));
     let r = json(&again);
-    assert_seed_motor(&r);
+    assert_paper_motor(&r);
     assert_eq!(r["identifiability"]["rank"], 6, "{r}");
     assert_eq!(r["identifiability"]["free"], 6, "{r}");
     assert_eq!(

@@ -5,16 +5,16 @@
 //! commissioned within them is refused before anything trips.
 
 use motor_id_tests::{
-    assert_within_3_percent, json, run, run_err, run_ok, s, Qemu, SEED_WITH_FRICTION,
+    assert_within_3_percent, json, run, run_err, run_ok, s, Qemu, PAPER_WITH_FRICTION,
 };
 use std::path::Path;
 
 /// A motor of the Table 1 box with Coulomb friction: each parameter by name.
 type Motor = [(&'static str, f32); 6];
 
-/// The seed paper's motor with the QEMU build's default friction (the firmware's default
+/// The paper's motor with the QEMU build's default friction (the firmware's default
 /// plant; `qemu.rs` commissions it at power-up): La/Ra 17 ms, J Ra / (Kv^2 + Ra B) 4.2 s.
-const SLOW: Motor = SEED_WITH_FRICTION;
+const SLOW: Motor = PAPER_WITH_FRICTION;
 
 /// A small fast motor: La/Ra 5 ms, mechanical time constant 22 ms.
 const FAST: Motor = [
@@ -36,7 +36,7 @@ const MIDDLE: Motor = [
     ("tc", 0.05),
 ];
 
-/// The mechanical time constant J Ra / (Kv^2 + Ra B) [s] (seed Eq. 4 with Eq. 3 at steady
+/// The mechanical time constant J Ra / (Kv^2 + Ra B) [s] (paper Eq. 4 with Eq. 3 at steady
 /// current).
 fn tau_m(m: &Motor) -> f32 {
     let p = |name: &str| m.iter().find(|(n, _)| *n == name).unwrap().1;

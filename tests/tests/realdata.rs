@@ -1,12 +1,12 @@
 //! The real lab motor (`../shared/realdata/fibo-lab-motor`, speed only, 2 kHz): Ra and La
-//! measured by the lab are fixed, the bounds widened (J, B, Kv far below seed Table 1).
+//! measured by the lab are fixed, the bounds widened (J, B, Kv far below paper's Table 1).
 
 use motor_id_tests::{json, param, realdata, run_ok, s};
 use std::path::PathBuf;
 
 /// Ra and La as measured by the lab, held fixed.
 const FIX: [&str; 2] = ["--fix", "ra=3.4,la=0.00285"];
-/// J, B and Kv are far below the seed's Table 1.
+/// J, B and Kv are far below the paper's Table 1.
 const BOUNDS: [&str; 2] = ["--bounds", "j=1e-7:1e-3,b=1e-8:1e-2,kv=1e-3:1"];
 
 #[test]

@@ -17,7 +17,7 @@ use motor_id_tests::{json, param, run_ok, s};
 use serde_json::Value;
 use std::path::Path;
 
-/// A faster motor than the seed's, inside Table 1 (clear of its bounds): `La/Ra` = 20 ms,
+/// A faster motor than the paper's, inside Table 1 (clear of its bounds): `La/Ra` = 20 ms,
 /// mechanical time constant `J Ra / (Ra B + Kv^2)` = 0.27 s, so that it settles within a
 /// short record.
 const FAST: Motor = Motor {
@@ -60,7 +60,7 @@ fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
 // The plant against closed forms.
 
 #[test]
-fn plant_reaches_the_steady_speed_of_seed_eq_1_4_and_coasts_down_exponentially() {
+fn plant_reaches_the_steady_speed_of_paper_eq_1_4_and_coasts_down_exponentially() {
     // 2 s at 24 V is seven mechanical time constants: within 1e-3 of the steady speed.
     let input = experiment(Shape::Start, 24.0, RATE, 3.0).coast_from(4000);
     let r = run(FAST, Effects::default(), Sensors::IDEAL, input);
@@ -78,7 +78,7 @@ fn plant_reaches_the_steady_speed_of_seed_eq_1_4_and_coasts_down_exponentially()
 
 #[test]
 fn plant_settles_where_every_effect_formula_balances() {
-    // At a steady state the derivatives vanish: seed Eq. 1 and 4 with each effect's term
+    // At a steady state the derivatives vanish: paper Eq. 1 and 4 with each effect's term
     // balance. All effects at once, forward and backward (asymmetric friction), 3 s: eleven
     // mechanical time constants, what is left of the transient is e^-11 = 2e-5 of it.
     let e = Effects {
@@ -299,7 +299,7 @@ fn dead_zone_bound(with: &Run) -> (f64, f64) {
 fn linear_motor_agrees_with_the_product_to_f32_rounding() {
     // The product's exact ZOH step and the reference's RK4 solve the same linear ODE: any
     // difference above the f32 floor would be a modelling error.
-    for (motor, profile) in [(FAST, "reversal"), (FAST, "load"), (Motor::SEED, "steps")] {
+    for (motor, profile) in [(FAST, "reversal"), (FAST, "load"), (Motor::PAPER, "steps")] {
         let p = pair(motor, Effects::default(), None, profile);
         p.check(&format!("linear {profile}"), (0.0, 0.0));
     }
@@ -509,12 +509,12 @@ fn noisy(seed: u64) -> Sensors {
 }
 
 #[test]
-fn identify_recovers_the_seed_motor_from_a_reference_record() {
+fn identify_recovers_the_paper_motor_from_a_reference_record() {
     let dir = tempfile::tempdir().unwrap();
     let input = experiment(Shape::Steps, 50.0, RATE, 3.0);
-    let r = run(Motor::SEED, Effects::default(), noisy(11), input);
+    let r = run(Motor::PAPER, Effects::default(), noisy(11), input);
     let report = identify(dir.path(), "seed", &r, &[]);
-    within_std(&report, &MOTOR, &Motor::SEED.values(), 4.0, 0.0);
+    within_std(&report, &MOTOR, &Motor::PAPER.values(), 4.0, 0.0);
 }
 
 #[test]
@@ -675,16 +675,16 @@ fn noise_estimate_on_encoder_quantisation_is_within_20_percent() {
 
 #[test]
 fn identify_judges_each_channel_and_flags_a_current_offset_on_the_current() {
-    // The seed motor's stall current is 50 V / 3.412 ohm = 14.7 A: an offset of 2 % of it
+    // The paper's motor's stall current is 50 V / 3.412 ohm = 14.7 A: an offset of 2 % of it
     // leaves the speed untouched but the current residual several times its noise.
     let dir = tempfile::tempdir().unwrap();
     let input = experiment(Shape::Steps, 50.0, RATE, 3.0);
-    let clean = run(Motor::SEED, Effects::default(), noisy(12), input.clone());
+    let clean = run(Motor::PAPER, Effects::default(), noisy(12), input.clone());
     let offset = Effects {
         io: 0.3,
         ..Effects::default()
     };
-    let shifted = run(Motor::SEED, offset, noisy(12), input);
+    let shifted = run(Motor::PAPER, offset, noisy(12), input);
     let q =
         |report: &Value, channel: &str| report["fit_quality"][channel]["model_adequate"].clone();
     let report = identify(dir.path(), "clean", &clean, &[]);
@@ -717,7 +717,7 @@ fn identify_judges_each_channel_and_flags_a_current_offset_on_the_current() {
 #[test]
 fn a_bench_coast_down_identifies_coulomb_friction_apart_from_viscous() {
     // Voltage steps, then the bridge opened for as long again: the shaft slows under
-    // friction alone, which separates Coulomb from viscous friction (seed Eq. 4, i = 0).
+    // friction alone, which separates Coulomb from viscous friction (paper Eq. 4, i = 0).
     let dir = tempfile::tempdir().unwrap();
     let mut input = experiment(Shape::Steps, 24.0, RATE, 1.2);
     let driven = input.len();
@@ -777,7 +777,7 @@ fn a_bench_coast_down_identifies_coulomb_friction_apart_from_viscous() {
 
 #[test]
 fn validate_puts_the_true_parameters_at_the_noise_floor_and_perturbed_ones_above_it() {
-    // Seed Figs. 11-14 on the reference plant: a start-up, a load step and a reversal.
+    // Paper's Figs. 11-14 on the reference plant: a start-up, a load step and a reversal.
     let dir = tempfile::tempdir().unwrap();
     let mut files = Vec::new();
     for (k, shape) in [

@@ -1,12 +1,12 @@
 //! simulate -> identify through the CLI contract: accuracy, identifiability, determinism,
 //! the paper-faithful mode.
 
-use motor_id_tests::{json, param, rel, run_ok, s, simulate, SEED_START};
+use motor_id_tests::{json, param, rel, run_ok, s, simulate, PAPER_START};
 
 const MOTOR: [&str; 5] = ["ra", "la", "j", "b", "kv"];
 
-/// Every motor parameter of the report `r` within 1 % of the seed's motor (seed Table 1).
-fn assert_seed_motor_within_one_percent(r: &serde_json::Value) {
+/// Every motor parameter of the report `r` within 1 % of the paper's motor (paper's Table 1).
+fn assert_paper_motor_within_one_percent(r: &serde_json::Value) {
     let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
     for (name, t) in MOTOR.iter().zip(truth) {
         assert!(
@@ -18,7 +18,7 @@ fn assert_seed_motor_within_one_percent(r: &serde_json::Value) {
 }
 
 #[test]
-fn seed_motor_with_current_is_recovered_within_one_percent() {
+fn paper_motor_with_current_is_recovered_within_one_percent() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("rec.csv");
     let report = dir.path().join("r.json");
@@ -41,7 +41,7 @@ fn seed_motor_with_current_is_recovered_within_one_percent() {
     ]);
     run_ok(&["identify", s(&csv), "--json", s(&report), "-q"]);
     let r = json(&report);
-    assert_seed_motor_within_one_percent(&r);
+    assert_paper_motor_within_one_percent(&r);
     // The fit sits at the noise (0.5 rad/s nominal; a realisation differs by a few %).
     assert!(r["rmse_omega"].as_f64().unwrap() < 0.55);
     assert!(r["evaluations"].as_u64().unwrap() > 0);
@@ -99,7 +99,7 @@ fn speed_only_step_says_only_three_combinations_are_pinned() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("start.csv");
     let report = dir.path().join("r.json");
-    simulate(&csv, SEED_START);
+    simulate(&csv, PAPER_START);
     let text = run_ok(&["identify", s(&csv), "--json", s(&report), "-q"]);
     assert!(text.contains("NOT pinned"), "{text}");
     let id = &json(&report)["identifiability"];
@@ -110,7 +110,7 @@ fn speed_only_step_says_only_three_combinations_are_pinned() {
     let combos = id["combinations"].as_array().unwrap();
     assert_eq!(combos.len(), 3);
     assert!(combos.iter().all(|c| c["pinned"] == true), "{id}");
-    // The pinned combinations match the truth (seed Eq. 6 coefficients) within three of
+    // The pinned combinations match the truth (paper Eq. 6 coefficients) within three of
     // their reported standard deviations.
     let (ra, la, j, b, kv) = (3.412f64, 0.0573f64, 0.0424f64, 0.00267f64, 0.1604f64);
     let truth = [
@@ -169,13 +169,13 @@ fn same_seed_same_result() {
 }
 
 #[test]
-fn paper_faithful_mode_reproduces_the_seed_workflow() {
+fn paper_faithful_mode_reproduces_the_papers_workflow() {
     // The seed: a starting transient read on the tacho only, FFO with k=4, n=25, alpha 0.4,
-    // beta 0.6, 200 iterations over Table 1: 40,100 evaluations, RMSE falling (seed Fig. 10).
+    // beta 0.6, 200 iterations over Table 1: 40,100 evaluations, RMSE falling (paper's Fig. 10).
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("start.csv");
     let report = dir.path().join("r.json");
-    simulate(&csv, SEED_START);
+    simulate(&csv, PAPER_START);
     run_ok(&["identify", s(&csv), "--paper", "--json", s(&report), "-q"]);
     let r = json(&report);
     assert_eq!(r["evaluations"].as_u64().unwrap(), 40_100 + 1);
@@ -252,7 +252,7 @@ fn tune_gives_gains_whose_current_loop_meets_the_asked_bandwidth() {
 #[test]
 fn a_stuck_search_is_widened_before_the_model_is_blamed() {
     // A motor on which the default pipeline's search stops in a local minimum from speed
-    // only (rmse 5 x the noise); the seed's FFO reaches the floor.
+    // only (rmse 5 x the noise); the paper's FFO reaches the floor.
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("stuck.csv");
     simulate(
@@ -422,7 +422,7 @@ fn a_decimated_record_identifies_the_same_motor() {
     ]);
     assert!(out.starts_with("fitted 20000 samples"), "{out}");
     let r = json(&report);
-    assert_seed_motor_within_one_percent(&r);
+    assert_paper_motor_within_one_percent(&r);
     let sigma = r["noise"]["sigma_omega"].as_f64().unwrap();
     assert!((sigma / (0.5 / 10f64.sqrt()) - 1.0).abs() < 0.05, "{sigma}");
     assert!(r["rmse_omega"].as_f64().unwrap() < 1.05 * sigma);

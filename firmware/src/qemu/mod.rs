@@ -1,7 +1,7 @@
 //! The QEMU netduinoplus2 board layer: USART1 (no clock or pin set-up: QEMU needs none, and
 //! its RCC would make a HAL's clock set-up spin), a motor simulated behind the
 //! [`Drive`](motor_id_shared::device::hardware::Drive) trait that the board's PWM and ADC implement
-//! (the seed paper's with Coulomb friction, which commissioning identifies, unless QEMU's
+//! (the paper's with Coulomb friction, which commissioning identifies, unless QEMU's
 //! command line gives another: [`plant_args::plant_motor`]),
 //! parameters in RAM (QEMU keeps no flash writes), no watchdog (QEMU has no IWDG), defmt
 //! over semihosting, and a meter of instructions and stack for the footprint report.
@@ -19,7 +19,7 @@ use motor_id_shared::device::plant::{demo_motor, SimulatedPlant};
 use motor_id_shared::wire::stored::STORED_LEN;
 use panic_semihosting as _;
 
-/// Sample period of the simulated drive: 2 kHz, 34 samples per La/Ra of the seed motor
+/// Sample period of the simulated drive: 2 kHz, 34 samples per La/Ra of the paper's motor
 /// (commissioning averages them into its records' steps).
 const DT: f32 = 5e-4;
 /// Sensor noise of the simulated tacho [rad/s] and current sensor [A].

@@ -29,7 +29,7 @@ pub struct CommissionArgs {
     /// commissions itself (`motor-id board commission`).
     #[arg(long)]
     pub sim: bool,
-    /// The simulated motor `ra=..,la=..,j=..,b=..,kv=..` (default: the seed paper's motor).
+    /// The simulated motor `ra=..,la=..,j=..,b=..,kv=..` (default: the paper's motor).
     #[arg(long, value_name = "ra=..,la=..,j=..,b=..,kv=..", value_parser = parse_motor)]
     pub motor: Option<ModelParams>,
     /// Add an effect to the simulated motor, e.g. `coulomb_friction:tc=0.05` (repeatable).
@@ -95,7 +95,7 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
     if !a.sim {
         bail!("commission runs on the virtual board only (--sim); a drive board commissions itself at power-up, or with `motor-id board --port PORT commission`");
     }
-    let mut motor = a.motor.unwrap_or(ModelParams::SEED_MOTOR);
+    let mut motor = a.motor.unwrap_or(ModelParams::PAPER_MOTOR);
     for e in &a.effect {
         e.apply(&mut motor)?;
     }

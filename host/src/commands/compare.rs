@@ -1,4 +1,4 @@
-//! `motor-id compare`: the seed paper's Table 3 on the user's records: optimisers on the same
+//! `motor-id compare`: the paper's Table 3 on the user's records: optimisers on the same
 //! objective and budget over several seeds ([`crate::comparison`]), as a table, JSON and a
 //! convergence plot.
 

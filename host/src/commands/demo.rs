@@ -1,6 +1,6 @@
-//! `motor-id demo`: the whole job on a built-in default: the seed's motor simulated, then
-//! identified from speed only (the seed's workflow) and from speed and current, and the
-//! latter checked on the seed's validation experiments.
+//! `motor-id demo`: the whole job on a built-in default: the paper's motor simulated, then
+//! identified from speed only (the paper's workflow) and from speed and current, and the
+//! latter checked on the paper's validation experiments.
 
 use crate::fit::{fit, FitOptions};
 use crate::fit_plot::plot_fit;
@@ -33,7 +33,7 @@ pub struct DemoArgs {
 pub fn run(a: &DemoArgs) -> Result<()> {
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
-    let csv = a.out_dir.join("seed_motor_steps.csv");
+    let csv = a.out_dir.join("paper_motor_steps.csv");
     let sim = SimulateArgs {
         motor: None,
         profile: ProfileArg::Steps,
@@ -52,15 +52,15 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     let rec = simulate(&sim)?;
     rec.write(&csv)?;
     println!(
-        "simulated the seed's motor (ra 3.412, la 0.0573, j 0.0424, b 0.00267, kv 0.1604): \
+        "simulated the paper's motor (ra 3.412, la 0.0573, j 0.0424, b 0.00267, kv 0.1604): \
          voltage steps 25 -> 50 -> 12.5 V, {} samples at 100 Hz, noise 0.5 rad/s and 0.02 A -> {}",
         rec.len(),
         csv.display()
     );
     let records = [rec];
-    let mut identified = ModelParams::SEED_MOTOR;
+    let mut identified = ModelParams::PAPER_MOTOR;
     for (label, speed_only, stem) in [
-        ("speed only, as the seed paper fits", true, "speed_only"),
+        ("speed only, as the paper fits", true, "speed_only"),
         (
             "speed and current, as a drive board measures",
             false,
@@ -92,8 +92,8 @@ pub fn run(a: &DemoArgs) -> Result<()> {
     validation_set(a, &sim, &identified)
 }
 
-/// The seed paper's validation experiments (Figs. 11-14: starting at two voltages, a load
-/// change, a change of voltage to its opposite), simulated on the seed's motor with other
+/// The paper's validation experiments (Figs. 11-14: starting at two voltages, a load
+/// change, a change of voltage to its opposite), simulated on the paper's motor with other
 /// noise, and the parameters identified from speed and current checked on them.
 fn validation_set(a: &DemoArgs, base: &SimulateArgs, p: &ModelParams) -> Result<()> {
     println!("\n== validate the parameters identified with current on new experiments");

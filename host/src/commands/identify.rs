@@ -23,11 +23,11 @@ pub struct IdentifyArgs {
     #[command(flatten)]
     pub read: ReadOptions,
     /// Pipeline: `default` (equation-error start and least squares; a short FFO when that
-    /// stays above the noise floor, then wider searches up to the seed's FFO), `board` (what
-    /// a drive board runs: the same within its memory) or `paper` (the seed's FFO alone).
+    /// stays above the noise floor, then wider searches up to the paper's FFO), `board` (what
+    /// a drive board runs: the same within its memory) or `paper` (the paper's FFO alone).
     #[arg(long, value_enum, default_value_t = PipelineArg::Default)]
     pub pipeline: PipelineArg,
-    /// Paper-faithful mode, short for `--pipeline paper`: the seed's FFO (k=4, n=25,
+    /// Paper-faithful mode, short for `--pipeline paper`: the paper's FFO (k=4, n=25,
     /// alpha 0.4, beta 0.6, 200 iterations, 40,100 evaluations, linear scale), no refinement.
     #[arg(long, conflicts_with = "pipeline")]
     pub paper: bool,

@@ -1,5 +1,5 @@
 //! `motor-id import-scope`: an oscilloscope CSV of tacho volts converted into a record CSV
-//! (the seed's workflow).
+//! (the paper's workflow).
 
 use crate::csvio::{import_scope as read_scope, ScopeImport};
 use anyhow::{anyhow, Result};
@@ -14,7 +14,7 @@ pub struct ScopeArgs {
     /// Output record CSV.
     #[arg(long)]
     pub out: PathBuf,
-    /// Tacho gain [rad/s per V] (the seed's tacho: 35).
+    /// Tacho gain [rad/s per V] (the paper's tacho: 35).
     #[arg(long)]
     pub tacho_gain: f32,
     /// The trace was captured with the scope's inverted option: negate it.

@@ -1,4 +1,4 @@
-//! `motor-id validate`: identified parameters checked on new experiments (seed Figs. 11-14:
+//! `motor-id validate`: identified parameters checked on new experiments (paper's Figs. 11-14:
 //! start-up, load change, speed change); the checking itself is [`crate::validation`].
 
 use crate::csvio::{ReadOptions, RecordReader};

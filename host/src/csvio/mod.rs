@@ -1,6 +1,6 @@
 //! Record CSV (docs/CONTRACTS.md): a header row; columns `t` (s, uniform step), `v` (V),
 //! `omega` (rad/s), optional `i` (A), `tl` (N m) and `bridge`; other columns ignored. Plus
-//! the oscilloscope import of the seed's workflow (tacho volts to rad/s).
+//! the oscilloscope import of the paper's workflow (tacho volts to rad/s).
 //!
 //! **Memory.** A record is read as a stream ([`rows`]): one row at a time into a reused
 //! buffer, never the whole file. It keeps only what the fit needs, the f32 columns (4 bytes

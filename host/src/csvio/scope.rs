@@ -1,4 +1,4 @@
-//! The oscilloscope import of the seed's workflow: a trace of tacho volts to a record. The
+//! The oscilloscope import of the paper's workflow: a trace of tacho volts to a record. The
 //! trace is read line by line, never whole, as a record CSV is.
 
 use super::time::TimeSteps;
@@ -12,9 +12,9 @@ use std::path::Path;
 /// How to turn an oscilloscope trace of tacho volts into a record.
 #[derive(Clone, Debug)]
 pub struct ScopeImport {
-    /// Tacho gain [rad/s per V] (the seed's 35).
+    /// Tacho gain [rad/s per V] (the paper's 35).
     pub gain: f32,
-    /// The trace was captured inverted (the seed's "inverted option"): negate it.
+    /// The trace was captured inverted (the paper's "inverted option"): negate it.
     pub inverted: bool,
     /// Zero-based column of time.
     pub time_column: usize,

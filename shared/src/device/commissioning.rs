@@ -101,7 +101,7 @@ fn plan(d: &Design, dt: f32, p: &Probed) -> Plan {
 }
 
 /// The problem a board solves when it commissions itself: the five motor parameters within
-/// the seed's Table 1 and Coulomb friction `tc` (which the coast-down pins) up to the largest
+/// the paper's Table 1 and Coulomb friction `tc` (which the coast-down pins) up to the largest
 /// torque the drive can apply by the probe's Kv (1.5 Kv I_max, so that a shaft the drive
 /// turns always lies inside; at least the catalogue's bound), the other effects left out.
 pub fn commissioning_spec(plan: &Plan, limits: &Limits) -> ProblemSpec {
@@ -132,7 +132,7 @@ mod tests {
         let coast = coast_start(n);
         let inputs: Vec<Bridge> = (0..n).map(|k| slow_input(k, n, volts)).collect();
         // Run it on a noise-free plant: in the coast-down no current flows and the speed
-        // follows seed Eq. 4 with i = 0, w(t) = (w0 + tc/B) e^(-B t / J) - tc/B.
+        // follows paper Eq. 4 with i = 0, w(t) = (w0 + tc/B) e^(-B t / J) - tc/B.
         let p = crate::device::plant::demo_motor();
         let mut plant = SimulatedPlant::new(&p, dt, 0.0, 0.0, 1).unwrap();
         let samples: Vec<Sample> = inputs.iter().map(|b| plant.apply(*b)).collect();

@@ -3,15 +3,15 @@
 //!
 //! - The **slow record** covers the mechanical mode: steps of ½ → ¼ → 1 of the voltage,
 //!   each a quarter of the record, then a coast-down over the last
-//!   quarter (seed Eq. 4 with i = 0 separates Coulomb from viscous friction), spanning
+//!   quarter (paper Eq. 4 with i = 0 separates Coulomb from viscous friction), spanning
 //!   [`SLOW_SPAN`] mechanical time scales when the budget allows.
 //! - The **fast record** covers the electrical mode: [`FAST_STEP`] samples per La/Ra, a step
-//!   of the voltage from 0 V and back, so that seed Eq. 1 pins Ra, La and Kv.
+//!   of the voltage from 0 V and back, so that paper Eq. 1 pins Ra, La and Kv.
 //!
 //! Each record sample is the drive's reading at its instant, the drive sampling a whole
 //! number of times per record step ([`crate::device::experiment`]). The voltage keeps the start current under
 //! [`CURRENT_SHARE`] of the current limit and the steady speed under
-//! [`crate::device::probe::SPEED_SHARE`] of the speed limit. In the steady state (seed
+//! [`crate::device::probe::SPEED_SHARE`] of the speed limit. In the steady state (paper
 //! Eq. 1 and 4) ω = (Kv V - Ra tc) / (Kv² + Ra B) is affine in V, from 0 at the break-away
 //! V₀ = Ra tc / Kv; so ω ≤ V / Kv always, and when the probe's step at V₁ settled with current
 //! i₁ (where Kv i₁ = B ω₁ + tc, so V₀ ≤ Ra i₁), ω ≤ (V - Ra i₁) / Kv for V ≥ V₁. The voltage

@@ -23,8 +23,8 @@ pub const fn coast_start(n: usize) -> usize {
 }
 
 /// Input of sample `k` of the slow record of `n` samples: ½ → ¼ → 1 of `volts` over three
-/// equal parts of the first three quarters (seed Section 6 speed changes: each level a
-/// steady speed, so that the torque balance of seed Eq. 4 is seen at three speeds, and the
+/// equal parts of the first three quarters (paper's Section 6 speed changes: each level a
+/// steady speed, so that the torque balance of paper Eq. 4 is seen at three speeds, and the
 /// step down reverses the current against the back-EMF), then the bridge open over the last
 /// quarter: the coast-down, friction alone slowing the shaft, from the highest speed, where
 /// viscous friction B ω stands out most against Coulomb friction

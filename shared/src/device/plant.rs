@@ -1,5 +1,5 @@
 //! A simulated motor behind the [`Drive`] trait that the board's PWM and ADC implement: the
-//! shared model (seed Eq. 1-5, with any effect of [`ModelParams`]) with white sensor noise.
+//! shared model (paper Eq. 1-5, with any effect of [`ModelParams`]) with white sensor noise.
 //! The QEMU build commissions it, and the host tests of [`crate::device::service`] drive it.
 
 use crate::device::hardware::{Drive, Sample};
@@ -12,11 +12,11 @@ use crate::Error;
 /// viscous torque at the speed of the commissioning experiment's last voltage step.
 pub const DEMO_FRICTION: f32 = 0.05;
 
-/// The motor the QEMU build simulates and the commissioning tests identify: the seed's
+/// The motor the QEMU build simulates and the commissioning tests identify: the paper's
 /// (which has no Coulomb friction) with [`DEMO_FRICTION`], which a real motor has and the
 /// commissioning coast-down is there to find.
 pub fn demo_motor() -> ModelParams {
-    ModelParams::SEED_MOTOR.with(crate::param_id::ParamId::Tc, DEMO_FRICTION)
+    ModelParams::PAPER_MOTOR.with(crate::param_id::ParamId::Tc, DEMO_FRICTION)
 }
 
 /// A simulated motor sampled every `dt`.

@@ -7,11 +7,11 @@
 //! 2. [`ramp`]: the voltage raised from 0 until the current reaches a calibration current,
 //!    or the shaft breaks away (the break-away voltage), or the voltage limit;
 //! 3. [`electrical_step`]: a voltage step at standstill, sampled at the drive's rate:
-//!    Ra = V / i (the current's plateau, seed Eq. 1 with ω = 0 and di/dt = 0) and La/Ra
+//!    Ra = V / i (the current's plateau, paper Eq. 1 with ω = 0 and di/dt = 0) and La/Ra
 //!    (the time to 63 % of it);
 //! 4. [`mechanical_step`]: a step at the largest voltage the current limit allows, watched
 //!    until the speed settles, nears the speed limit (the bridge's input then changes), or
-//!    the stage's share of the budget ends: Kv from seed Eq. 1 in the steady state,
+//!    the stage's share of the budget ends: Kv from paper Eq. 1 in the steady state,
 //!    Kv = (V - Ra i) / ω, and the mechanical time scale.
 //!
 //! Each stage has a frame of its own (`#[inline(never)]`): only one stage's traces are on

@@ -302,7 +302,7 @@ fn check_report(report: &MotorReport) -> TestCaseResult {
 fn play(requests: &[(u32, HostMessage)]) -> TestCaseResult {
     let mut store = RecordStore::<CAPACITY>::new();
     let mut service = Service::new(&mut store, LIMITS);
-    let mut hw = hardware(seed_plant());
+    let mut hw = hardware(paper_plant());
     let mut at = 0;
     for (gap, msg) in requests {
         at += gap;
@@ -319,7 +319,7 @@ fn play(requests: &[(u32, HostMessage)]) -> TestCaseResult {
         model.turn(&link.received[received..], &link.sent[sent..])?;
     }
     // Serviceable: a hello is answered with a hello, and a new record is taken.
-    let upload = upload(&Owned::seed_motor(Profile::Steps, DT, CHUNK, NOISE, 1));
+    let upload = upload(&Owned::paper_motor(Profile::Steps, DT, CHUNK, NOISE, 1));
     let hello = HostMessage::Hello {
         version: PROTOCOL_VERSION,
     };
@@ -364,7 +364,7 @@ fn upload(data: &Owned) -> Vec<HostMessage> {
 enum Step {
     /// One request as generated.
     Request(HostMessage),
-    /// A whole upload of `samples` of the seed motor's response (noise seed `seed`), or of
+    /// A whole upload of `samples` of the paper's motor's response (noise seed `seed`), or of
     /// arbitrary numbers, then an identification with `pipeline`.
     Upload {
         samples: usize,
@@ -385,7 +385,7 @@ impl Step {
                 pipeline,
             } => (*samples, *seed, arbitrary, *pipeline),
         };
-        let mut data = Owned::seed_motor(Profile::Steps, DT, samples, NOISE, seed);
+        let mut data = Owned::paper_motor(Profile::Steps, DT, samples, NOISE, seed);
         if let Some(values) = arbitrary {
             let columns = [&mut data.v, &mut data.omega, &mut data.current];
             for (k, x) in columns.into_iter().flat_map(|c| c.iter_mut()).enumerate() {
@@ -514,7 +514,7 @@ fn write_service_corpus() {
     let hello = HostMessage::Hello {
         version: PROTOCOL_VERSION,
     };
-    let data = Owned::seed_motor(Profile::Steps, DT, CAPACITY, NOISE, 3);
+    let data = Owned::paper_motor(Profile::Steps, DT, CAPACITY, NOISE, 3);
     let mut records = upload(&data);
     let identify = |pipeline| HostMessage::Identify { seed: 1, pipeline };
     let with = |tail: &[HostMessage]| {

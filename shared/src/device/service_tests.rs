@@ -101,13 +101,13 @@ fn hardware(plant: SimulatedPlant) -> TestHardware {
 /// The drive's sample period in these tests [s] (1 kHz).
 const DT: f32 = 1e-3;
 
-/// The seed's motor with Coulomb friction `tc`, sampled at [`DT`] with sensor noise.
+/// The paper's motor with Coulomb friction `tc`, sampled at [`DT`] with sensor noise.
 fn plant_with_friction(tc: f32) -> SimulatedPlant {
-    let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+    let p = ModelParams::PAPER_MOTOR.with(ParamId::Tc, tc);
     SimulatedPlant::new(&p, DT, 0.5, 0.02, 7).unwrap()
 }
 
-fn seed_plant() -> SimulatedPlant {
+fn paper_plant() -> SimulatedPlant {
     plant_with_friction(DEMO_FRICTION)
 }
 
@@ -128,12 +128,12 @@ fn friction_of(report: &MotorReport) -> crate::wire::protocol::Estimate {
 fn first_power_up_commissions_then_boots_into_service() {
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
-    let mut hw = hardware(seed_plant());
+    let mut hw = hardware(paper_plant());
     let Boot::Commissioned { report, found } = service.boot(&mut hw) else {
         panic!("expected commissioning, got {:?}", hw.link.sent.last());
     };
     assert_eq!(found, NotStored::Empty);
-    assert_seed_motor(&report);
+    assert_paper_motor(&report);
     let friction = friction_of(&report);
     assert!(friction.std < 0.1 * DEMO_FRICTION, "tc {friction:?}");
     assert_eq!(report.rank, 6, "speed, current and coast-down pin all six");
@@ -217,8 +217,8 @@ fn plan_of(sent: &[BoardMessage]) -> crate::wire::protocol::Plan {
     plan.expect("the probe sent its plan")
 }
 
-/// Assert the seed motor's five parameters and friction within 3 %.
-fn assert_seed_motor(report: &MotorReport) {
+/// Assert the paper's motor's five parameters and friction within 3 %.
+fn assert_paper_motor(report: &MotorReport) {
     let truth = [3.412, 0.0573, 0.0424, 0.00267, 0.1604];
     for (k, want) in truth.into_iter().enumerate() {
         let got = motor_value(report, k);
@@ -232,15 +232,15 @@ fn assert_seed_motor(report: &MotorReport) {
 fn a_current_sensor_offset_is_measured_and_removed_and_a_gross_one_refused() {
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
-    let mut plant = seed_plant();
+    let mut plant = paper_plant();
     plant.offset.current = 2.0;
     let mut hw = hardware(plant);
     let report = service.commission(1, &mut hw).expect("commissioned");
     let offset = plan_of(&hw.link.sent).current_offset;
     assert!((offset - 2.0).abs() < 0.01, "offset {offset}");
-    assert_seed_motor(&report);
+    assert_paper_motor(&report);
     // An offset of 12.5 % of the limit is a fault, found before any voltage is applied.
-    let mut plant = seed_plant();
+    let mut plant = paper_plant();
     plant.offset.current = 5.0;
     let mut hw = hardware(plant);
     assert_refused_at_boot(&mut service, &mut hw, Refusal::SensorFault);
@@ -315,13 +315,13 @@ const FIVE_AMPS: Limits = Limits {
 
 #[test]
 fn a_tight_current_limit_is_kept_and_the_motor_still_commissioned() {
-    // The seed motor draws 50 V / 3.412 Ohm = 14.7 A from rest at 50 V: with 5 A allowed the
+    // The paper's motor draws 50 V / 3.412 Ohm = 14.7 A from rest at 50 V: with 5 A allowed the
     // probe finds Ra first and the experiment stays under the limit.
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, FIVE_AMPS);
-    let mut hw = watched_hardware(Watched::new(seed_plant()));
+    let mut hw = watched_hardware(Watched::new(paper_plant()));
     let report = service.commission(1, &mut hw).expect("commissioned");
-    assert_seed_motor(&report);
+    assert_paper_motor(&report);
     assert!(hw.drive.largest < 0.9 * 5.0, "{} A", hw.drive.largest);
     assert!(plan_of(&hw.link.sent).volts < 0.7 * 5.0 * 3.412 * 1.1);
 }
@@ -402,7 +402,7 @@ fn read_record<D: Drive>(
 #[test]
 fn the_records_of_a_commissioning_are_read_back_exactly_as_fitted() {
     let mut store = RecordStore::<SAMPLES>::new();
-    let mut hw = hardware(seed_plant());
+    let mut hw = hardware(paper_plant());
     let mut service = Service::new(&mut store, LIMITS);
     say_hello(&mut service, &mut hw);
     let nothing = BoardMessage::Refused(Refusal::NoRecord);
@@ -448,7 +448,7 @@ fn a_current_trip_stops_the_drive_and_stores_nothing() {
     // A fault that reads 100 A one second in: the bench trips at once.
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
-    let mut drive = Watched::new(seed_plant());
+    let mut drive = Watched::new(paper_plant());
     drive.fault_at = FAULT_AT;
     drive.fault = 100.0;
     let mut hw = watched_hardware(drive);
@@ -465,7 +465,7 @@ const FAULT_AT: u32 = (1.0 / DT) as u32;
 fn a_motor_that_never_comes_to_rest_is_not_driven() {
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
-    let mut plant = seed_plant();
+    let mut plant = paper_plant();
     plant.offset.omega = 50.0;
     let mut hw = hardware(plant);
     assert_refused_at_boot(&mut service, &mut hw, Refusal::NotAtRest);
@@ -475,7 +475,7 @@ fn a_motor_that_never_comes_to_rest_is_not_driven() {
 fn commissioning_again_waits_for_the_motor_to_stop_turning() {
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
-    let mut hw = hardware(seed_plant());
+    let mut hw = hardware(paper_plant());
     let first = service.commission(2, &mut hw).expect("first commissioning");
     // The experiment ends at a quarter of the voltage: the motor still turns.
     let second = service
@@ -492,11 +492,11 @@ fn abort_during_identification_stores_nothing_and_requests_meanwhile_are_busy() 
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
     // A first run counts the polls of the experiment (the plant is seeded: the same run).
-    let mut hw = hardware(seed_plant());
+    let mut hw = hardware(paper_plant());
     let _ = service.commission(BOOT_SEED, &mut hw);
     let fit = hw.link.polls_at_fit.expect("the fit reported");
     // The hello comes at the fit's first poll, the abort at its second.
-    let mut hw = hardware(seed_plant());
+    let mut hw = hardware(paper_plant());
     let hello = HostMessage::Hello {
         version: PROTOCOL_VERSION,
     };
@@ -525,7 +525,7 @@ fn abort_during_identification_stores_nothing_and_requests_meanwhile_are_busy() 
 fn requests_need_a_session_of_the_same_version() {
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
-    let mut hw = hardware(seed_plant());
+    let mut hw = hardware(paper_plant());
     service.handle(HostMessage::ReadParams, &mut hw);
     let hello = |version| HostMessage::Hello { version };
     service.handle(hello(PROTOCOL_VERSION + 1), &mut hw);
@@ -557,7 +557,7 @@ fn a_chunk_that_would_end_past_u32_max_is_refused_not_taken_for_a_repeat() {
     // when the tests run on a 32-bit target.
     let mut store = RecordStore::<SAMPLES>::new();
     let mut service = Service::new(&mut store, LIMITS);
-    let mut hw = hardware(seed_plant());
+    let mut hw = hardware(paper_plant());
     let one = heapless::Vec::from_slice(&[1.0]).unwrap();
     let requests = [
         HostMessage::Hello {

@@ -5,18 +5,18 @@
 //! `D` are compile-time capacities, the configuration uses any `k * n <= N` and `dim <= D`.
 //!
 //! One iteration ([`Ffo::step`]):
-//! 1. Section quality = mean cost of its members (seed Eq. 10); the worst section is the one
+//! 1. Section quality = mean cost of its members (paper Eq. 10); the worst section is the one
 //!    with the highest mean.
 //! 2. Memories: the local memory of a section holds its best `round(x n)` members, the global
-//!    memory the best `round(x N)` of all (seed Eq. 11-12, at least one each).
+//!    memory the best `round(x N)` of all (paper Eq. 11-12, at least one each).
 //! 3. Worst section: `Y_new = Y + a (Y - Y_glob)`, `a = alpha U(-1, 1)`, `Y_glob` a random member
-//!    of the global memory (seed Eq. 13-14). Other sections: `Y_new = Y + a (Y - Y_u)`,
-//!    `a = beta U(0, 1)`, `Y_u` a random member of the whole population (seed Eq. 15-16).
-//! 4. Soil combination (original FFO; the seed is silent): with probability `Q` against the
+//!    of the global memory (paper Eq. 13-14). Other sections: `Y_new = Y + a (Y - Y_u)`,
+//!    `a = beta U(0, 1)`, `Y_u` a random member of the whole population (paper Eq. 15-16).
+//! 4. Soil combination (original FFO; the paper is silent): with probability `Q` against the
 //!    global best with weight `W1`, else against the section's local best with weight U(0,1).
 //! 5. Every new point is clamped to the bounds and replaces its parent only if better (greedy).
 //!
-//! Choices the seed leaves open, and what this implementation does:
+//! Choices the paper leaves open, and what this implementation does:
 //! - `a` is drawn per dimension (not one scalar per member).
 //! - The memories hold indices of the current best members: with greedy replacement no member
 //!   ever gets worse, so the best members of the population are the best found so far.
@@ -24,14 +24,14 @@
 //! - The soil step direction is configurable ([`Soil`]): `AwayFromBest`, `Y + w (Y - Best)`, as
 //!   the original is usually transcribed (kept for the paper-faithful mode), or
 //!   `TowardsBest`, `Y + w (Best - Y)` with `w = W1 U(0, 1)` per dimension, which converges
-//!   (measured on the seed's motor: median 14,600 evaluations to the noise floor instead of never in 40,100).
+//!   (measured on the paper's motor: median 14,600 evaluations to the noise floor instead of never in 40,100).
 //! - Non-finite costs are `INFINITY`: such candidates are rejected, never a crash.
 //! - The cost function is told the cost a candidate must beat (its parent's; `INFINITY` for
 //!   the initial population) and may stop as soon as it knows the candidate cannot, returning
 //!   any value not below it: the decision, and so the whole run, is the same, and a record
 //!   fit abandons most poor candidates part-way ([`crate::fit::objective::Objective::fitness_below`]).
 //! - Evaluations: `N` at start, then `N` per iteration (`2 N` with the soil step), so the
-//!   seed's settings spend `100 + 200 * 200 = 40,100`.
+//!   paper's settings spend `100 + 200 * 200 = 40,100`.
 
 use crate::error::Error;
 use crate::rng::{self, Rng};
@@ -40,7 +40,7 @@ use crate::rng::{self, Rng};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Soil {
-    /// No soil-combination step (only seed Eq. 13-16).
+    /// No soil-combination step (only paper Eq. 13-16).
     Off,
     /// `Y + w (Best - Y)`.
     TowardsBest,
@@ -56,15 +56,15 @@ pub struct FfoConfig {
     pub sections: usize,
     /// Members per section `n`.
     pub per_section: usize,
-    /// Worst-section step size (seed Eq. 14).
+    /// Worst-section step size (paper Eq. 14).
     pub alpha: f32,
-    /// Other-section step size (seed Eq. 16).
+    /// Other-section step size (paper Eq. 16).
     pub beta: f32,
     /// Probability of combining with the global rather than the local best.
     pub q: f32,
     /// Weight of the global-best combination.
     pub w1: f32,
-    /// Memory fraction `x` of seed Eq. 11-12.
+    /// Memory fraction `x` of paper Eq. 11-12.
     pub memory_fraction: f32,
     /// Iterations.
     pub iterations: u32,
@@ -73,9 +73,9 @@ pub struct FfoConfig {
 }
 
 impl FfoConfig {
-    /// The seed's settings: 4 sections of 25, alpha 0.4, beta 0.6, 200 iterations, with the
+    /// The paper's settings: 4 sections of 25, alpha 0.4, beta 0.6, 200 iterations, with the
     /// original's soil step as transcribed (Q 0.5, W1 1). 40,100 evaluations.
-    pub const SEED: FfoConfig = FfoConfig {
+    pub const PAPER: FfoConfig = FfoConfig {
         sections: 4,
         per_section: 25,
         alpha: 0.4,
@@ -101,7 +101,7 @@ impl FfoConfig {
         soil: Soil::TowardsBest,
     };
 
-    /// Population size `k n` (seed Eq. 8).
+    /// Population size `k n` (paper Eq. 8).
     pub const fn population(&self) -> usize {
         self.sections * self.per_section
     }
@@ -142,7 +142,7 @@ pub struct Ffo<const N: usize, const D: usize> {
 }
 
 impl<const N: usize, const D: usize> Ffo<N, D> {
-    /// Sample the initial population uniformly in the unit cube (seed Eq. 9) and evaluate it.
+    /// Sample the initial population uniformly in the unit cube (paper Eq. 9) and evaluate it.
     pub fn new(
         cfg: FfoConfig,
         dim: usize,
@@ -249,7 +249,7 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
         let n = self.cfg.per_section;
         let pop_n = self.cfg.population();
         let dim = self.dim;
-        // 1. Worst section by mean cost (seed Eq. 10).
+        // 1. Worst section by mean cost (paper Eq. 10).
         let mut worst = 0;
         let mut worst_q = f32::NEG_INFINITY;
         for s in 0..k {
@@ -259,12 +259,12 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
                 worst = s;
             }
         }
-        // 2. Global memory (seed Eq. 12).
+        // 2. Global memory (paper Eq. 12).
         let mut global_memory = [0usize; N];
         for (rank, g) in global_memory.iter_mut().enumerate().take(self.global_mem) {
             *g = self.kth_best(0..pop_n, rank);
         }
-        // 3. Seed Eq. 13-16.
+        // 3. Paper Eq. 13-16.
         for m in 0..pop_n {
             let mut cand = self.pop[m];
             if m / n == worst {
@@ -287,7 +287,7 @@ impl<const N: usize, const D: usize> Ffo<N, D> {
         }
         // 4. Soil combination with the memories.
         if self.cfg.soil != Soil::Off {
-            // Memories after step 3 (seed Eq. 11-12).
+            // Memories after step 3 (paper Eq. 11-12).
             let best = self.kth_best(0..pop_n, 0);
             let mut local_best = [0usize; N];
             for s in 0..k {
@@ -379,7 +379,7 @@ mod tests {
             }
         };
         let run = |cost: &dyn Fn(&[f32], f32) -> f32| {
-            let mut f = Ffo::<100, 5>::new(FfoConfig::SEED, 5, 4, cost).unwrap();
+            let mut f = Ffo::<100, 5>::new(FfoConfig::PAPER, 5, 4, cost).unwrap();
             for _ in 0..30 {
                 f.step(cost);
             }
@@ -396,7 +396,7 @@ mod tests {
 
     #[test]
     fn minimises_a_sphere_and_counts_evaluations() {
-        let mut f = Ffo::<100, 5>::new(FfoConfig::SEED, 5, 1, sphere).unwrap();
+        let mut f = Ffo::<100, 5>::new(FfoConfig::PAPER, 5, 1, sphere).unwrap();
         let start = f.best().1;
         for _ in 0..20 {
             f.step(sphere);
@@ -411,7 +411,7 @@ mod tests {
             let cfg = FfoConfig {
                 soil,
                 iterations: 30,
-                ..FfoConfig::SEED
+                ..FfoConfig::PAPER
             };
             let mut f = Ffo::<100, 5>::new(cfg, 5, 3, sphere).unwrap();
             while !f.done() {
@@ -436,11 +436,11 @@ mod tests {
         let a = run(9);
         assert_eq!(a, run(9));
         assert!(a.1.is_finite() && a.0[0] <= 0.5);
-        assert_eq!(FfoConfig::SEED.evaluations(), 40_100);
+        assert_eq!(FfoConfig::PAPER.evaluations(), 40_100);
     }
 
     #[test]
     fn rejects_a_population_larger_than_capacity() {
-        assert!(Ffo::<10, 5>::new(FfoConfig::SEED, 5, 0, sphere).is_err());
+        assert!(Ffo::<10, 5>::new(FfoConfig::PAPER, 5, 0, sphere).is_err());
     }
 }

@@ -1,7 +1,7 @@
-//! Which parameters, or combinations of them, the data pins: the seed paper's blind spot.
+//! Which parameters, or combinations of them, the data pins: the paper's blind spot.
 //!
 //! From a voltage step read only on the tacho, `w/V = Kv / (La J s^2 + (Ra J + La B) s + Ra B + Kv^2)`
-//! (seed Eq. 6) has three independent coefficients, so two directions of (Ra, La, J, B, Kv)
+//! (paper Eq. 6) has three independent coefficients, so two directions of (Ra, La, J, B, Kv)
 //! leave the speed trace unchanged (e.g. Ra, La scaled by lambda and J, B by 1/lambda). The
 //! analysis here is local and numerical, so it covers any record, effect and fixed set:
 //! the Fisher information `F = J^T J / sigma^2` of the weighted residuals with respect to the
@@ -32,7 +32,7 @@ use crate::param_id::ParamId;
 pub const PINNED_STD: f64 = 0.1;
 /// Largest share of a gradient's squared norm along numerically flat directions for a
 /// quantity that may still be called pinned (a component of 1 %: the numerical accuracy of
-/// the eigenvectors there; the seed Eq. 6 coefficients, exactly orthogonal to the flat
+/// the eigenvectors there; the paper Eq. 6 coefficients, exactly orthogonal to the flat
 /// directions of a speed-only record, come out with components of up to about 0.3 %).
 const FLAT_SHARE: f64 = 1e-4;
 /// A pinned direction's eigenvalue must exceed the numerical floor by this factor.
@@ -53,11 +53,11 @@ pub struct ParamCertainty {
     pub std: Option<f32>,
 }
 
-/// The coefficients of seed Eq. 6 that a speed record from a voltage input can pin.
+/// The coefficients of paper Eq. 6 that a speed record from a voltage input can pin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Combination {
-    /// `Kv / (La J)`: the gain of seed Eq. 6 per `s^2`.
+    /// `Kv / (La J)`: the gain of paper Eq. 6 per `s^2`.
     KvOverLaJ,
     /// `Ra/La + B/J`: the damping coefficient of the denominator.
     RaOverLaPlusBOverJ,
@@ -136,7 +136,7 @@ pub struct Identifiability {
     pub rank: usize,
     /// Per free parameter.
     pub params: heapless::Vec<ParamCertainty, MAX_FREE>,
-    /// Seed Eq. 6 coefficients (when any motor parameter is free).
+    /// Paper Eq. 6 coefficients (when any motor parameter is free).
     pub combinations: heapless::Vec<CombinationCertainty, 3>,
     /// Directions the data does not pin.
     pub unpinned: heapless::Vec<Direction, MAX_FREE>,

@@ -27,12 +27,12 @@ const NOISE_FLOOR_FACTOR: f32 = 1.05;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Pipeline {
     /// [`IdentifyConfig::default_pipeline`]: start and least squares, a short FFO above the
-    /// noise floor, escalating to the seed's FFO.
+    /// noise floor, escalating to the paper's FFO.
     Default,
     /// [`IdentifyConfig::board`]: the same within a board's memory
     /// (what a board runs when it commissions itself).
     Board,
-    /// [`IdentifyConfig::paper_faithful`]: the seed's FFO alone.
+    /// [`IdentifyConfig::paper_faithful`]: the paper's FFO alone.
     Paper,
 }
 
@@ -66,7 +66,7 @@ pub struct IdentifyConfig {
     pub ffo: FfoConfig,
     /// Local refinement after it (`None`: FFO only, as the seed).
     pub refine: Option<LmConfig>,
-    /// Search log-scaled where bounds are positive (false: linear, seed Eq. 9).
+    /// Search log-scaled where bounds are positive (false: linear, paper Eq. 9).
     pub log_scale: bool,
     /// Random seed.
     pub seed: u64,
@@ -95,8 +95,8 @@ pub enum Escalation {
     /// 25 times as long (1,296 and 6,416 evaluations), each with other random numbers, then
     /// least squares from its best members.
     Board,
-    /// The host's: an FFO of the seed's population for 20 iterations (4,100 evaluations),
-    /// then the seed's whole FFO (40,100), both with the soil step towards the best, then
+    /// The host's: an FFO of the paper's population for 20 iterations (4,100 evaluations),
+    /// then the paper's whole FFO (40,100), both with the soil step towards the best, then
     /// least squares from their best members.
     Host,
 }
@@ -158,20 +158,20 @@ impl IdentifyConfig {
                 ..self.ffo
             },
             (Escalation::Host, 0 | 1) => FfoConfig {
-                iterations: [20, FfoConfig::SEED.iterations][step],
+                iterations: [20, FfoConfig::PAPER.iterations][step],
                 soil: Soil::TowardsBest,
-                ..FfoConfig::SEED
+                ..FfoConfig::PAPER
             },
             _ => return None,
         };
         Some((ffo, self.seed.wrapping_add(step as u64 + 1)))
     }
 
-    /// The seed's workflow: FFO with the seed's settings (40,100 evaluations) in linear
+    /// The paper's workflow: FFO with the paper's settings (40,100 evaluations) in linear
     /// scale over Table 1, no refinement.
     pub fn paper_faithful(seed: u64) -> Self {
         IdentifyConfig {
-            ffo: FfoConfig::SEED,
+            ffo: FfoConfig::PAPER,
             refine: None,
             log_scale: false,
             seed,
@@ -212,7 +212,7 @@ pub struct Progress {
     pub best: f32,
 }
 
-/// One point of the convergence trace (seed Fig. 10).
+/// One point of the convergence trace (paper's Fig. 10).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TracePoint {
     /// Evaluations spent.
@@ -373,7 +373,7 @@ fn pipeline(
     };
     let dim = space.dim();
     // The default pipeline starts from an equation-error estimate (or the caller's point); the
-    // paper-faithful one from random points only, as the seed does.
+    // paper-faithful one from random points only, as the paper does.
     let start_params = match initial {
         Some(p) => Some(*p),
         None if cfg.equation_error_start => start(records, spec),
@@ -532,7 +532,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
         }
     }
 
-    /// FFO (seed Eq. 8-16) from random points (and `seed_point`), then refinement of the best
+    /// FFO (paper Eq. 8-16) from random points (and `seed_point`), then refinement of the best
     /// members until one reaches the noise floor or the restarts are spent.
     fn search(&mut self, seed_point: Option<&[f32]>) -> Result<(), Error> {
         let starts = self.explore(seed_point)?;
@@ -550,7 +550,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
         Ok(())
     }
 
-    /// The FFO (seed Eq. 8-16) from random points (and `seed_point`); returns the starts of
+    /// The FFO (paper Eq. 8-16) from random points (and `seed_point`); returns the starts of
     /// refinement, the best `restarts + 1` members (best first, finite cost only). A frame
     /// of its own, so that the population is gone while refinement runs.
     #[inline(never)]

@@ -18,9 +18,9 @@ fn assert_within(p: &ModelParams, truth: &ModelParams, rel: f32) {
 }
 
 #[test]
-fn seed_motor_with_current_recovered_within_one_percent() {
-    let truth = ModelParams::SEED_MOTOR;
-    let data = Owned::seed_motor(
+fn paper_motor_with_current_recovered_within_one_percent() {
+    let truth = ModelParams::PAPER_MOTOR;
+    let data = Owned::paper_motor(
         Profile::Steps,
         0.015,
         2000,
@@ -60,8 +60,8 @@ fn seed_motor_with_current_recovered_within_one_percent() {
 
 #[test]
 fn speed_only_step_pins_three_combinations() {
-    let truth = ModelParams::SEED_MOTOR;
-    let data = Owned::seed_motor(
+    let truth = ModelParams::PAPER_MOTOR;
+    let data = Owned::paper_motor(
         Profile::Start,
         0.01,
         2000,
@@ -99,7 +99,7 @@ fn speed_only_step_pins_three_combinations() {
 
 #[test]
 fn more_restarts_than_kept_starts_is_refused_before_any_work() {
-    let data = Owned::seed_motor(Profile::Steps, 0.015, 200, Noise::default(), 1);
+    let data = Owned::paper_motor(Profile::Steps, 0.015, 200, Noise::default(), 1);
     let rec = [data.record(true, false)];
     let at_capacity = IdentifyConfig {
         restarts: MAX_RESTARTS as u32,
@@ -168,7 +168,7 @@ fn parameters_pinned_with_current_lie_within_three_deviations_99_percent() {
 
 #[test]
 fn escalations_widen_within_their_memory_and_end() {
-    // Evaluations of each wider search: population x (1 + 2 iterations) (seed Eq. 8-16 with
+    // Evaluations of each wider search: population x (1 + 2 iterations) (paper Eq. 8-16 with
     // the soil step): the board's 16 members for 40 and 200 iterations, the host's 100 for
     // 20 and 200. Within the board's population capacity, and two steps at most.
     let cost = |cfg: &IdentifyConfig, step| cfg.wider(step).map(|(ffo, _)| ffo.evaluations());

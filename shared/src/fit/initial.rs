@@ -1,13 +1,13 @@
 //! Equation-error starts for the search, computed without a single simulation.
 //!
-//! With current: seed Eq. 1 and Eq. 4 integrated over time are linear in the parameters,
+//! With current: paper Eq. 1 and Eq. 4 integrated over time are linear in the parameters,
 //!
 //! `int v = Ra int i + La (i - i0) + Kv int w` and
 //! `Kv int i - int tl = J (w - w0) + B int w`,
 //!
 //! so least squares over all samples gives Ra, La, Kv and then J, B.
 //!
-//! Speed only: seed Eq. 6 as a differential equation, `w'' + c2 w' + c3 w = c1 v` with
+//! Speed only: paper Eq. 6 as a differential equation, `w'' + c2 w' + c3 w = c1 v` with
 //! `c1 = Kv/(La J)`, `c2 = Ra/La + B/J`, `c3 = (Ra B + Kv^2)/(La J)`, integrated twice is
 //! linear in `c1, c2, c3` and two constants of integration per record. Only these three
 //! combinations are pinned (see [`crate::fit::identifiability`]), so the start is the point of the
@@ -113,8 +113,8 @@ fn row_stride(len: usize) -> usize {
 }
 
 /// Motor parameters by equation error, or `None` without current in every record or when
-/// the regression is degenerate or gives a non-positive parameter. Seed Eq. 1 holds only
-/// while the bridge drives the armature, so a coast-down adds no electrical row; seed Eq. 4
+/// the regression is degenerate or gives a non-positive parameter. Paper Eq. 1 holds only
+/// while the bridge drives the armature, so a coast-down adds no electrical row; paper Eq. 4
 /// holds throughout (with `i = 0` in the coast-down, where it shows friction alone). With
 /// `with_friction`, the mechanical regression has a Coulomb term `tc int sign(w)` as well.
 pub fn equation_error(records: &[Record], with_friction: bool) -> Option<ModelParams> {
@@ -175,7 +175,7 @@ pub fn equation_error(records: &[Record], with_friction: bool) -> Option<ModelPa
 /// Records used by the speed-only regression (two unknowns each).
 const MAX_SPEED_RECORDS: usize = 4;
 
-/// The transfer-function coefficients `(c1, c2, c3)` of seed Eq. 6 by equation error.
+/// The transfer-function coefficients `(c1, c2, c3)` of paper Eq. 6 by equation error.
 pub fn speed_coefficients(records: &[Record]) -> Option<(f64, f64, f64)> {
     let with_load = records.iter().any(|r| r.load.is_some());
     // Unknowns: c1, c2, c3, [1/J, Ra/(La J)], then (w0, w0' + c2 w0) per record.
@@ -191,7 +191,7 @@ pub fn speed_coefficients(records: &[Record]) -> Option<(f64, f64, f64)> {
         // Running integrals: of w, of int w, of v, of int v, of tl, of int tl.
         let (mut iw, mut iiw, mut iv, mut iiv, mut it, mut iit) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         let stride = row_stride(r.len());
-        // Seed Eq. 6 holds only while the bridge drives the armature.
+        // Paper Eq. 6 holds only while the bridge drives the armature.
         for k in 1..r.driven_len() {
             let w_mid = 0.5 * (r.omega[k - 1] + r.omega[k]) as f64;
             iiw += (iw + 0.5 * w_mid * dt) * dt;

@@ -32,8 +32,8 @@ fn least_squares_solves_nearly_collinear_columns() {
 
 #[test]
 fn recovers_a_noise_free_motor_closely() {
-    let truth = ModelParams::SEED_MOTOR;
-    let data = Owned::seed_motor(Profile::Steps, 0.001, 30_000, Noise::default(), 1);
+    let truth = ModelParams::PAPER_MOTOR;
+    let data = Owned::paper_motor(Profile::Steps, 0.001, 30_000, Noise::default(), 1);
     let est = equation_error(&[data.record(true, false)], false).unwrap();
     for id in ParamId::MOTOR {
         let rel = (est.get(id) / truth.get(id) - 1.0).abs();
@@ -82,9 +82,9 @@ fn a_coast_down_record_gives_coulomb_friction_and_the_motor() {
 
 #[test]
 fn speed_only_start_lies_on_the_equal_fit_set() {
-    let data = Owned::seed_motor(Profile::Steps, 0.001, 30_000, Noise::default(), 1);
+    let data = Owned::paper_motor(Profile::Steps, 0.001, 30_000, Noise::default(), 1);
     let (c1, c2, c3) = speed_coefficients(&[data.record(false, false)]).unwrap();
-    // Seed Eq. 6 coefficients of the truth.
+    // Paper Eq. 6 coefficients of the truth.
     let (ra, la, j, b, kv) = (3.412f64, 0.0573f64, 0.0424f64, 0.00267f64, 0.1604f64);
     for (got, want) in [
         (c1, kv / (la * j)),
@@ -111,7 +111,7 @@ fn many_records_with_load_fit_in_fixed_memory() {
     let data: std::vec::Vec<Owned> = (0..6)
         .map(|s| {
             Owned::new(
-                &ModelParams::SEED_MOTOR,
+                &ModelParams::PAPER_MOTOR,
                 exp,
                 0.002,
                 10_000,
@@ -135,7 +135,7 @@ fn needs_current() {
         load_torque: 0.0,
     };
     let data = Owned::new(
-        &ModelParams::SEED_MOTOR,
+        &ModelParams::PAPER_MOTOR,
         exp,
         0.001,
         1000,

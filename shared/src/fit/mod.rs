@@ -1,5 +1,5 @@
-//! The fit: the search space, the objective (seed Eq. 7), the equation-error start, the
-//! Farmland Fertility Optimizer (seed Eq. 8-16), the Levenberg-Marquardt refinement, the
+//! The fit: the search space, the objective (paper Eq. 7), the equation-error start, the
+//! Farmland Fertility Optimizer (paper Eq. 8-16), the Levenberg-Marquardt refinement, the
 //! identifiability analysis and the pipelines that chain them.
 //!
 //! Owns the numbers of an identification. Uses [`crate::model`]; it may not use the wire

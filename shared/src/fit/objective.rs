@@ -1,4 +1,4 @@
-//! The fit objective: RMSE of speed (seed Eq. 7) and, when every record has a current
+//! The fit objective: RMSE of speed (paper Eq. 7) and, when every record has a current
 //! column, speed and current residuals weighted by their measured noise.
 //!
 //! Residuals are streamed: no buffer of record length is ever allocated. For least squares
@@ -22,7 +22,7 @@ pub struct Cost {
     pub sse: f64,
     /// Number of residuals in `sse`.
     pub residuals: usize,
-    /// RMSE of speed [rad/s] (seed Eq. 7).
+    /// RMSE of speed [rad/s] (paper Eq. 7).
     pub rmse_omega: f32,
     /// RMSE of current [A], when the records have current.
     pub rmse_current: Option<f32>,
@@ -30,7 +30,7 @@ pub struct Cost {
 
 impl Cost {
     /// The scalar the optimisers minimise: `sqrt(sse / residuals)`, in rad/s. For speed-only
-    /// records this is exactly the RMSE of seed Eq. 7.
+    /// records this is exactly the RMSE of paper Eq. 7.
     pub fn fitness(&self) -> f32 {
         libm::sqrt(self.sse / self.residuals as f64) as f32
     }
@@ -417,7 +417,7 @@ mod tests {
             omega: 0.5,
             current: 0.02,
         };
-        let data = Owned::seed_motor(Profile::Steps, 0.01, 2000, noise, 3);
+        let data = Owned::paper_motor(Profile::Steps, 0.01, 2000, noise, 3);
         let records = [data.record(true, false)];
         let objective = Objective::new(&records).unwrap();
         let space = Space::new(&crate::fit::space::ProblemSpec::default(), true).unwrap();
@@ -439,7 +439,7 @@ mod tests {
             omega: 0.5,
             current: 0.02,
         };
-        let mut data = Owned::seed_motor(Profile::Steps, 0.01, 2000, noise, 3);
+        let mut data = Owned::paper_motor(Profile::Steps, 0.01, 2000, noise, 3);
         // Exactly at rest at first (this noise draw starts 3.3 sigma off).
         data.omega[0] = 0.0;
         let at_rest = data.record(true, false);

@@ -4,7 +4,7 @@
 //! The Fisher information ([`super::identifiability`]) is local: a parameter whose gradient
 //! has no component along the flat directions at the optimum is called pinned with the
 //! delta-method deviation `s`. When the equal-fit set is curved (a speed-only record, where
-//! seed Eq. 6 leaves two directions of (Ra, La, J, B, Kv) free and `Kv` is `c3/c1` only while
+//! paper Eq. 6 leaves two directions of (Ra, La, J, B, Kv) free and `Kv` is `c3/c1` only while
 //! back-EMF dominates viscous friction), the valley bends towards that parameter away from
 //! the optimum, and `s` is optimistic: over 10,000 speed-only benchmark motors, 54 % of the
 //! parameters so pinned lay within 3 `s` of the truth.

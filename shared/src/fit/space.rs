@@ -11,7 +11,7 @@ use crate::capacity::MAX_FREE;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Scale {
-    /// `p = lo + (hi - lo) u` (seed Eq. 9).
+    /// `p = lo + (hi - lo) u` (paper Eq. 9).
     Linear,
     /// `p = lo (hi / lo)^u`: equal resolution per decade, for bounds spanning decades.
     Log,
@@ -38,7 +38,7 @@ fn check_fixed_value(id: ParamId, value: f32) -> Result<(), Error> {
 }
 
 impl Default for ProblemSpec {
-    /// The seed's problem: the five motor parameters free within Table 1, no effects.
+    /// The paper's problem: the five motor parameters free within Table 1, no effects.
     fn default() -> Self {
         let mut bounds = [(0.0, 0.0); PARAM_COUNT];
         let mut free = [false; PARAM_COUNT];
@@ -49,7 +49,7 @@ impl Default for ProblemSpec {
         ProblemSpec {
             bounds,
             free,
-            base: ModelParams::SEED_MOTOR,
+            base: ModelParams::PAPER_MOTOR,
         }
     }
 }
@@ -152,7 +152,7 @@ pub struct Space {
 
 impl Space {
     /// Build the space of `spec`. With `log_scale`, parameters whose lower bound is positive
-    /// are searched in log scale; otherwise every parameter is linear (seed Eq. 9). Not
+    /// are searched in log scale; otherwise every parameter is linear (paper Eq. 9). Not
     /// inlined: its temporaries stay off the frame of an identification (a board's stack).
     #[inline(never)]
     pub fn new(spec: &ProblemSpec, log_scale: bool) -> Result<Space, Error> {
@@ -236,7 +236,7 @@ mod tests {
         let mut spec = ProblemSpec::default();
         spec.free(ParamId::Tc);
         spec.set_bounds(ParamId::Tc, 0.0, 0.05).unwrap();
-        let at = ModelParams::SEED_MOTOR.with(ParamId::Tc, 0.01);
+        let at = ModelParams::PAPER_MOTOR.with(ParamId::Tc, 0.01);
         for log_scale in [false, true] {
             let space = Space::new(&spec, log_scale).unwrap();
             for id in [ParamId::Ra, ParamId::Kv, ParamId::Tc] {

@@ -22,7 +22,7 @@ pub(crate) const SHIFT: f32 = 1.0;
 ///
 /// The initial speed of a record that does not start at rest is a nuisance parameter: taking
 /// the first reading makes its noise persist for a mechanical time constant (a 3-sigma first
-/// sample raised the fit RMSE by 28 % on a seed-motor record). With `h` the response of the (weighted) readings to
+/// sample raised the fit RMSE by 28 % on a paper-motor record). With `h` the response of the (weighted) readings to
 /// the initial speed, measured with a second simulation started [`SHIFT`] higher, the
 /// least-squares shift is `hr / hh`, and the projected sums are
 /// `sse - hr^2/hh`, `J^T J - (J^T h)(h^T J)/hh`, `J^T r - (J^T h) hr/hh`: all of them

@@ -1,8 +1,8 @@
-//! Exact zero-order-hold discretisation of the linear part of seed Eq. 5.
+//! Exact zero-order-hold discretisation of the linear part of paper Eq. 5.
 //!
 //! With state `x = [i, w]` and inputs held over one step `dt`,
 //! `x(k+1) = x(k) + D x(k) + gv * v + gt * tl`, where `D = e^{A dt} - I` and
-//! `[gv gt] = (integral_0^dt e^{A s} ds) Bu` (seed Eq. 5 gives `A` and `Bu`).
+//! `[gv gt] = (integral_0^dt e^{A s} ds) Bu` (paper Eq. 5 gives `A` and `Bu`).
 //! Storing `D = e^{A dt} - I` rather than `e^{A dt}` keeps slow mechanical modes exact in f32
 //! (at 50 kHz a 15 s mechanical time constant gives `1 - e^{a dt}` of about 1e-6, which an
 //! f32 `e^{A dt}` could not hold to better than 6 %).
@@ -42,7 +42,7 @@ pub struct Discrete {
 }
 
 impl Discrete {
-    /// Discretise the linear motor of `p` (seed Eq. 5) at step `dt` seconds.
+    /// Discretise the linear motor of `p` (paper Eq. 5) at step `dt` seconds.
     pub fn new(p: &ModelParams, dt: f32) -> Result<Discrete, Error> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(Error::InvalidStep);
@@ -273,12 +273,12 @@ mod tests {
 
     #[test]
     fn matches_fine_rk4_in_every_branch() {
-        // Seed motor (complex poles at 1 kHz): trigonometric branch.
-        check(ModelParams::SEED_MOTOR, 1e-3);
+        // Paper's motor (complex poles at 1 kHz): trigonometric branch.
+        check(ModelParams::PAPER_MOTOR, 1e-3);
         // The corner of the Table 1 box where Euler/RK4 diverge (`docs/ARCHITECTURE.md`): complex poles near -25 +- 632j.
         check(ModelParams::motor(0.5, 0.01, 0.001, 0.0005, 2.0), 1e-3);
         // Small step: Taylor branch.
-        check(ModelParams::SEED_MOTOR, 2e-5);
+        check(ModelParams::PAPER_MOTOR, 2e-5);
         // Stiff, well separated real poles at 100 Hz: divided differences.
         check(ModelParams::motor(10.0, 0.01, 1.0, 0.0005, 0.01), 1e-2);
         // Fast small motor (La/Ra = 0.5 ms) at 10 kHz.
@@ -288,9 +288,9 @@ mod tests {
     #[test]
     fn slow_mode_kept_exact_at_high_rate() {
         // Mechanical pole around -0.24 /s at 50 kHz: D[1][1] is about -5e-6.
-        let d = Discrete::new(&ModelParams::SEED_MOTOR, 2e-5).unwrap();
+        let d = Discrete::new(&ModelParams::PAPER_MOTOR, 2e-5).unwrap();
         // Steady-state speed from the discrete map must equal the analytic Kv V / (Ra B + Kv^2).
-        let p = ModelParams::SEED_MOTOR;
+        let p = ModelParams::PAPER_MOTOR;
         let (ra, b, kv) = (p.get(ParamId::Ra), p.get(ParamId::B), p.get(ParamId::Kv));
         let expected = kv as f64 * 100.0 / (ra as f64 * b as f64 + kv as f64 * kv as f64);
         // Solve D x + gv v = 0 in f64 from the f32 coefficients.
@@ -307,11 +307,11 @@ mod tests {
     #[test]
     fn refuses_bad_parameters() {
         assert_eq!(
-            Discrete::new(&ModelParams::SEED_MOTOR.with(ParamId::La, 0.0), 1e-3),
+            Discrete::new(&ModelParams::PAPER_MOTOR.with(ParamId::La, 0.0), 1e-3),
             Err(Error::NonPositiveParameter(ParamId::La))
         );
         assert_eq!(
-            Discrete::new(&ModelParams::SEED_MOTOR, f32::NAN),
+            Discrete::new(&ModelParams::PAPER_MOTOR, f32::NAN),
             Err(Error::InvalidStep)
         );
     }

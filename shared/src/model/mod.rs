@@ -1,4 +1,4 @@
-//! The motor model: the five parameters of seed Eq. 1-5 and the catalogue of effects, the
+//! The motor model: the five parameters of paper Eq. 1-5 and the catalogue of effects, the
 //! exact zero-order-hold discretisation, the fixed-step simulator, the measured record, the
 //! excitation profiles and synthetic records.
 //!

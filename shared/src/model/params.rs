@@ -1,11 +1,11 @@
-//! A full parameter set: the five motor parameters of seed Eq. 1-5 and the parameters of the
+//! A full parameter set: the five motor parameters of paper Eq. 1-5 and the parameters of the
 //! optional effects, with their validation.
 
 use crate::error::Error;
 use crate::param_id::{ParamId, ParamSpec, PARAM_COUNT};
 use serde::{Deserialize, Serialize};
 
-/// The five motor parameters of seed Eq. 1-5: units, seed Table 1 bounds, and the
+/// The five motor parameters of paper Eq. 1-5: units, paper's Table 1 bounds, and the
 /// physical range (strictly positive; viscous friction may vanish).
 pub const MOTOR_SPECS: [ParamSpec; 5] = [
     motor_spec(ParamId::Ra, "ra", "ohm", (0.5, 10.0)),
@@ -34,8 +34,8 @@ const fn motor_spec(
     }
 }
 
-/// A full parameter set: motor (seed Eq. 5) plus every effect. An effect whose parameter is
-/// zero is absent, so `ModelParams::motor(..)` is the seed's linear model.
+/// A full parameter set: motor (paper Eq. 5) plus every effect. An effect whose parameter is
+/// zero is absent, so `ModelParams::motor(..)` is the paper's linear model.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ModelParams {
@@ -43,9 +43,9 @@ pub struct ModelParams {
 }
 
 impl ModelParams {
-    /// The seed paper's identified motor (Section 6): Ra 3.412, La 0.0573, J 0.0424,
+    /// The paper's identified motor (Section 6): Ra 3.412, La 0.0573, J 0.0424,
     /// B 0.00267, Kv 0.1604.
-    pub const SEED_MOTOR: ModelParams = ModelParams::motor(3.412, 0.0573, 0.0424, 0.00267, 0.1604);
+    pub const PAPER_MOTOR: ModelParams = ModelParams::motor(3.412, 0.0573, 0.0424, 0.00267, 0.1604);
 
     /// A linear motor without effects.
     pub const fn motor(ra: f32, la: f32, j: f32, b: f32, kv: f32) -> ModelParams {

@@ -1,20 +1,20 @@
 //! Excitation profiles for simulation and for the board's commissioning experiment: the
-//! operating conditions of seed Section 6 (starting, load change, speed change) plus a
+//! operating conditions of paper's Section 6 (starting, load change, speed change) plus a
 //! reversal. Each is a pure function of time, so no buffer is needed.
 
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
 
-/// The experiments of seed Section 6, plus a reversal.
+/// The experiments of paper's Section 6, plus a reversal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Profile {
-    /// Voltage step from rest at t = 0 (seed Fig. 9, 11).
+    /// Voltage step from rest at t = 0 (paper's Fig. 9, 11).
     Start,
-    /// Start at half voltage, step up to full at 1/3, down to a quarter at 2/3 (seed
+    /// Start at half voltage, step up to full at 1/3, down to a quarter at 2/3 (paper
     /// Fig. 13-14: positive and negative voltage change).
     Steps,
-    /// Start at full voltage; known load torque step at half time (seed Fig. 12).
+    /// Start at full voltage; known load torque step at half time (paper's Fig. 12).
     Load,
     /// Full voltage, reversed to minus full voltage at half time.
     Reversal,
@@ -110,7 +110,7 @@ impl Experiment {
     }
 }
 
-/// Slowest time constant of the linear motor [s]: `1 / |slow pole|` of seed Eq. 6.
+/// Slowest time constant of the linear motor [s]: `1 / |slow pole|` of paper Eq. 6.
 pub fn slowest_time_constant(p: &ModelParams) -> f32 {
     let (ra, la, j, b, kv) = (
         p.get(ParamId::Ra) as f64,
@@ -138,7 +138,7 @@ pub fn settling_duration(p: &ModelParams, profile: Profile) -> f32 {
     5.0 * slowest_time_constant(p) * profile.segments() as f32
 }
 
-/// A load step of 20 % of the stall torque `Kv V / Ra` (seed Eq. 1-4 at standstill).
+/// A load step of 20 % of the stall torque `Kv V / Ra` (paper Eq. 1-4 at standstill).
 pub fn default_load_torque(p: &ModelParams, voltage: f32) -> f32 {
     0.2 * p.get(ParamId::Kv) * voltage.abs() / p.get(ParamId::Ra)
 }

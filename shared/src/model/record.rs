@@ -27,7 +27,7 @@ pub struct Record<'a> {
     pub load: Option<&'a [f32]>,
     /// First sample of a coast-down, if the record ends with one: from `k = coast_from` on,
     /// every bridge switch is off (open circuit), so no armature current flows, `v` is not
-    /// applied and the shaft slows under friction and load alone (seed Eq. 4 with `i = 0`).
+    /// applied and the shaft slows under friction and load alone (paper Eq. 4 with `i = 0`).
     pub coast_from: Option<usize>,
 }
 
@@ -72,7 +72,7 @@ impl<'a> Record<'a> {
     }
 
     /// Samples up to the start of the coast-down (all of them without one): the rows in
-    /// which the applied voltage drives the armature (seed Eq. 1 holds).
+    /// which the applied voltage drives the armature (paper Eq. 1 holds).
     pub fn driven_len(&self) -> usize {
         self.coast_from
             .map_or(self.len(), |c| (c + 1).min(self.len()))
@@ -104,12 +104,12 @@ impl<'a> Record<'a> {
     /// Initial state of the simulation for this record and motor `p`. Speed: the first
     /// reading, or exactly rest when it is within three standard deviations `sigma_omega` of
     /// zero (a record that starts indistinguishable from rest starts at rest). Current: the
-    /// mechanical equilibrium `Kv i = B w + tc sign(w) + kq w |w| + tl` (seed Eq. 4 with
+    /// mechanical equilibrium `Kv i = B w + tc sign(w) + kq w |w| + tl` (paper Eq. 4 with
     /// dw/dt = 0 and the friction effects), exact at rest and in steady state, unless the
     /// current is fitted (`sigma_current` given) and its first reading, less the sensor's
     /// offset `io`, differs from that by more than three `sigma_current`. (A noisy first
     /// reading taken as the state would persist for a time constant: La/Ra reaches seconds
-    /// in the seed's Table 1 box; so would an offset taken for a current.)
+    /// in the paper's Table 1 box; so would an offset taken for a current.)
     pub fn initial_state(
         &self,
         p: &ModelParams,
@@ -393,10 +393,10 @@ mod tests {
             load: None,
             coast_from: None,
         };
-        let p = ModelParams::SEED_MOTOR.with(ParamId::Io, 0.35);
+        let p = ModelParams::PAPER_MOTOR.with(ParamId::Io, 0.35);
         assert_eq!(r.initial_state(&p, 0.5, Some(0.05)).current, 0.0);
         // Without the offset in the model, the reading is 6.6 sigma from rest: a current.
-        let q = ModelParams::SEED_MOTOR;
+        let q = ModelParams::PAPER_MOTOR;
         assert_eq!(r.initial_state(&q, 0.5, Some(0.05)).current, 0.33);
     }
 

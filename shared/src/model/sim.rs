@@ -1,4 +1,4 @@
-//! Fixed-step simulation of the motor (seed Eq. 1-5) with the optional effects.
+//! Fixed-step simulation of the motor (paper Eq. 1-5) with the optional effects.
 //!
 //! The linear part advances with the exact ZOH coefficients of [`crate::model::discretise`]. Each
 //! nonlinear effect enters as an extra voltage or load torque evaluated at the start of the
@@ -341,7 +341,7 @@ impl Simulator {
 
     /// Open the bridge (a coast-down, see [`crate::model::record::Record::coast_from`]): from now on
     /// no armature current flows and the voltage given to the steps is not applied; the
-    /// shaft obeys seed Eq. 4 with `i = 0` (viscous and Coulomb friction, load). The current
+    /// shaft obeys paper Eq. 4 with `i = 0` (viscous and Coulomb friction, load). The current
     /// is taken to vanish at once: in a real bridge it decays through the freewheel diodes
     /// against the bus voltage within `La/Ra ln(1 + Ra i / (Vbus + Kv w))`, a fraction of
     /// a sample at commissioning rates for the small current of a steady speed.
@@ -400,7 +400,7 @@ impl Simulator {
         }
     }
 
-    /// Seed Eq. 5 by the exact ZOH step, no effect: the hot path of every fit without
+    /// Paper Eq. 5 by the exact ZOH step, no effect: the hot path of every fit without
     /// effects, inlined into the fit loops. The same arithmetic as
     /// [`Simulator::step_with_effects`] with every effect at zero.
     #[inline(always)]
@@ -410,7 +410,7 @@ impl Simulator {
         self.push_reading();
     }
 
-    /// The exact ZOH step of seed Eq. 5 from `(i0, w0)` with `volts` and `load` held over
+    /// The exact ZOH step of paper Eq. 5 from `(i0, w0)` with `volts` and `load` held over
     /// it: the one copy of this arithmetic, so that every path agrees bit for bit.
     #[inline(always)]
     fn linear_update(&mut self, i0: f32, w0: f32, volts: f32, load: f32) {
@@ -421,15 +421,15 @@ impl Simulator {
         self.omega.add(dw);
     }
 
-    /// The mechanical step with no armature current (seed Eq. 4 with `i = 0`).
+    /// The mechanical step with no armature current (paper Eq. 4 with `i = 0`).
     #[inline(always)]
     fn mechanical_update(&mut self, w0: f32, load: f32) {
         let d = &self.disc;
         self.omega.add(d.am * w0 + d.gm * load);
     }
 
-    /// Seed Eq. 5 with no effect but Coulomb friction, shaft turning: the friction
-    /// `tc sign(w)` is a load held over the step (with the bridge open, seed Eq. 4 alone
+    /// Paper Eq. 5 with no effect but Coulomb friction, shaft turning: the friction
+    /// `tc sign(w)` is a load held over the step (with the bridge open, paper Eq. 4 alone
     /// with `i = 0`), and a shaft whose speed crosses zero sticks there. The hot path of a
     /// commissioning fit; the same arithmetic as [`Simulator::step_with_effects`] in this
     /// case.

@@ -33,8 +33,8 @@ fn max_rel_diff(a: &[f32], b: &[f32]) -> f32 {
 
 #[test]
 fn design_md_equal_fit_sets_give_the_same_speed_trace() {
-    // Scaling (Ra, La) by 2.5 and (J, B) by 1/2.5 (`docs/ARCHITECTURE.md`, the identifiability trap) leaves seed Eq. 6 unchanged.
-    let paper = ModelParams::SEED_MOTOR;
+    // Scaling (Ra, La) by 2.5 and (J, B) by 1/2.5 (`docs/ARCHITECTURE.md`, the identifiability trap) leaves paper Eq. 6 unchanged.
+    let paper = ModelParams::PAPER_MOTOR;
     let scaled = ModelParams::motor(8.53, 0.14325, 0.01696, 0.001068, 0.1604);
     let a = trace(&paper, 1e-3, 20_000);
     let b = trace(&scaled, 1e-3, 20_000);
@@ -51,7 +51,7 @@ fn design_md_equal_fit_sets_give_the_same_speed_trace() {
 #[test]
 fn coulomb_friction_holds_the_shaft_below_breakaway() {
     let tc = 0.05f32;
-    let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+    let p = ModelParams::PAPER_MOTOR.with(ParamId::Tc, tc);
     // Stall torque at 1 V is Kv V / Ra = 0.047 N m < tc: the shaft never turns.
     let mut sim = Simulator::new(&p, 1e-3, InitialState::REST).unwrap();
     for _ in 0..5000 {
@@ -59,7 +59,7 @@ fn coulomb_friction_holds_the_shaft_below_breakaway() {
         assert_eq!(sim.omega(), 0.0);
     }
     // At 50 V it turns, and settles below the friction-free speed.
-    let free = trace(&ModelParams::SEED_MOTOR, 1e-3, 30_000);
+    let free = trace(&ModelParams::PAPER_MOTOR, 1e-3, 30_000);
     let with = trace(&p, 1e-3, 30_000);
     assert!(with[29_999] > 0.0 && with[29_999] < free[29_999]);
 }
@@ -75,7 +75,7 @@ fn the_friction_fast_path_is_the_general_step_bit_for_bit() {
         (0.5, 1000.0),
         (2.0, 1000.0),
     ] {
-        let p = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+        let p = ModelParams::PAPER_MOTOR.with(ParamId::Tc, tc);
         let dt = 1.0 / rate;
         let n = (80.0 * rate) as usize;
         let mut fast = Simulator::new(&p, dt, InitialState::REST).unwrap();
@@ -121,8 +121,8 @@ fn the_friction_fast_path_is_the_general_step_bit_for_bit() {
 
 #[test]
 fn sensor_delay_shifts_the_reading() {
-    let p = ModelParams::SEED_MOTOR.with(ParamId::Td, 0.01);
-    let a = trace(&ModelParams::SEED_MOTOR, 1e-3, 2000);
+    let p = ModelParams::PAPER_MOTOR.with(ParamId::Td, 0.01);
+    let a = trace(&ModelParams::PAPER_MOTOR, 1e-3, 2000);
     let b = trace(&p, 1e-3, 2000);
     for k in 10..2000 {
         assert!(
@@ -182,7 +182,7 @@ fn settled(p: &ModelParams, volts: f32, seconds: f32) -> f32 {
     sim.omega()
 }
 
-/// Steady speed of the seed motor against a friction torque `f` at `volts` (seed Eq. 1-4 with
+/// Steady speed of the paper's motor against a friction torque `f` at `volts` (paper Eq. 1-4 with
 /// d/dt = 0: Kv (v - Kv w) / Ra = B w + f).
 fn steady_speed(volts: f32, f: f32) -> f32 {
     let (ra, b, kv) = (3.412f32, 0.00267f32, 0.1604f32);
@@ -192,14 +192,14 @@ fn steady_speed(volts: f32, f: f32) -> f32 {
 #[test]
 fn static_friction_holds_the_shaft_until_break_away_then_slides_at_the_coulomb_torque() {
     let (tc, ts, ws) = (0.02f32, 0.03f32, 2.0f32);
-    let p = ModelParams::SEED_MOTOR
+    let p = ModelParams::PAPER_MOTOR
         .with(ParamId::Tc, tc)
         .with(ParamId::Ts, ts)
         .with(ParamId::Ws, ws);
     // Stall torque Kv V / Ra: 0.047 N m at 1 V (above tc, below tc + ts): held.
     assert_eq!(settled(&p, 1.0, 5.0), 0.0);
     // The same motor with Coulomb friction alone turns at 1 V.
-    let coulomb = ModelParams::SEED_MOTOR.with(ParamId::Tc, tc);
+    let coulomb = ModelParams::PAPER_MOTOR.with(ParamId::Tc, tc);
     assert!(settled(&coulomb, 1.0, 5.0) > 0.0);
     // At 20 V it breaks away and settles where only the Coulomb torque acts (the excess
     // has faded: 20 V gives ~100 rad/s, fifty Stribeck speeds).
@@ -212,7 +212,7 @@ fn static_friction_holds_the_shaft_until_break_away_then_slides_at_the_coulomb_t
 fn asymmetric_friction_slows_one_direction_more_than_the_other() {
     let (tc, ka) = (0.03f32, 1.0 / 3.0);
     let ta = tc * ka;
-    let p = ModelParams::SEED_MOTOR
+    let p = ModelParams::PAPER_MOTOR
         .with(ParamId::Tc, tc)
         .with(ParamId::Ka, ka);
     let forward = settled(&p, 20.0, 120.0);
@@ -231,7 +231,7 @@ fn bridge_deadtime_takes_its_voltage_but_lets_current_flow_unlike_a_brush_drop()
     // current, so a small current still flows (its share of the band); a 1 V brush drop
     // stops it entirely.
     let with = |id: ParamId, v: f32| {
-        let mut p = ModelParams::SEED_MOTOR.with(id, v);
+        let mut p = ModelParams::PAPER_MOTOR.with(id, v);
         if id == ParamId::Vdt {
             p.set(ParamId::Ib, 0.5);
         }
@@ -245,7 +245,7 @@ fn bridge_deadtime_takes_its_voltage_but_lets_current_flow_unlike_a_brush_drop()
     let i = with(ParamId::Vdt, 1.0);
     assert!(i > 0.0 && i < 0.5 / 3.412, "{i}");
     // At a high voltage the full error acts: the steady speed is that of v - vdt.
-    let p = ModelParams::SEED_MOTOR
+    let p = ModelParams::PAPER_MOTOR
         .with(ParamId::Vdt, 1.0)
         .with(ParamId::Ib, 0.01);
     let w = settled(&p, 20.0, 120.0);
@@ -255,9 +255,9 @@ fn bridge_deadtime_takes_its_voltage_but_lets_current_flow_unlike_a_brush_drop()
 
 #[test]
 fn a_current_offset_shifts_the_current_reading_only() {
-    let p = ModelParams::SEED_MOTOR.with(ParamId::Io, 0.25);
+    let p = ModelParams::PAPER_MOTOR.with(ParamId::Io, 0.25);
     let (mut a, mut b) = (
-        Simulator::new(&ModelParams::SEED_MOTOR, 1e-3, InitialState::REST).unwrap(),
+        Simulator::new(&ModelParams::PAPER_MOTOR, 1e-3, InitialState::REST).unwrap(),
         Simulator::new(&p, 1e-3, InitialState::REST).unwrap(),
     );
     for _ in 0..1000 {

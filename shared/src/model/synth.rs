@@ -30,7 +30,7 @@ pub struct Buffers<'a> {
 }
 
 /// Run `experiment` on `p` from rest at step `dt` and fill `out`; from sample `coast_from`
-/// on, if given, the bridge is open (a coast-down: seed Eq. 4 with `i = 0`), and the voltage
+/// on, if given, the bridge is open (a coast-down: paper Eq. 4 with `i = 0`), and the voltage
 /// written there is 0 (none is applied).
 pub fn synthesize(
     p: &ModelParams,
@@ -67,12 +67,12 @@ pub fn synthesize(
     Ok(())
 }
 
-/// A motor drawn log-uniformly from the seed's Table 1 box with random seed `seed`, no
+/// A motor drawn log-uniformly from the paper's Table 1 box with random seed `seed`, no
 /// effects (the benchmarks' motors).
 #[cfg(any(test, feature = "std"))]
 pub fn table_one_motor(seed: u64) -> ModelParams {
     let mut r = rng::seeded(seed);
-    let mut truth = ModelParams::SEED_MOTOR;
+    let mut truth = ModelParams::PAPER_MOTOR;
     for id in crate::param_id::ParamId::MOTOR {
         let (lo, hi) = id.default_bounds();
         truth.set(id, lo * (hi / lo).powf(rng::unit(&mut r)));
@@ -80,7 +80,7 @@ pub fn table_one_motor(seed: u64) -> ModelParams {
     truth
 }
 
-/// A benchmark case: a motor drawn log-uniformly from the seed's Table 1 box (seed `seed`),
+/// A benchmark case: a motor drawn log-uniformly from the paper's Table 1 box (seed `seed`),
 /// a `steps` experiment of `samples` samples lasting five slowest time constants per step,
 /// white noise of 1 % of the peak speed and current. Shared by the benchmark
 /// (`host/examples/benchmark.rs`) and the tests of the reported uncertainty.

@@ -18,7 +18,7 @@ pub struct Limits {
 }
 
 impl Limits {
-    /// Conservative defaults for a drive board of the seed paper's class (a 50 V motor): 50 V,
+    /// Conservative defaults for a drive board of the paper's class (a 50 V motor): 50 V,
     /// 40 A, 500 rad/s, 60 s.
     pub const DEFAULT: Limits = Limits {
         voltage: 50.0,

@@ -95,7 +95,7 @@ pub enum PipelineName {
     Default,
     /// The same within a board's memory (commissioning's).
     Board,
-    /// The seed paper's FFO alone.
+    /// The paper's FFO alone.
     Paper,
 }
 

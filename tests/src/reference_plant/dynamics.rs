@@ -1,13 +1,13 @@
-//! The reference plant's physics: seed Eq. 1-4 written out again, with every effect's own
+//! The reference plant's physics: paper Eq. 1-4 written out again, with every effect's own
 //! formula, integrated by classical RK4 on a fine substep with its own stick-slip logic.
 //! Nothing here comes from `motor_id_shared` (its exact-ZOH step, its held effect terms,
 //! its dead zones): this is the independent side of the agreement tests.
 //!
-//! - seed Eq. 1 (armature): `La di/dt = v_applied - Ra i - Kv_eff w - vb sign(i)`, with
+//! - paper Eq. 1 (armature): `La di/dt = v_applied - Ra i - Kv_eff w - vb sign(i)`, with
 //!   `v_applied = v - vdt clamp(i / ib, -1, 1)` (bridge dead time);
-//! - seed Eq. 4 (shaft): `J dw/dt = Kv_eff i - B w - friction(w) - kq w |w| - tl`, with
+//! - paper Eq. 4 (shaft): `J dw/dt = Kv_eff i - B w - friction(w) - kq w |w| - tl`, with
 //!   `friction(w) = sign(w) (tc ± ta + ts exp(-(w/ws)^2))`;
-//! - seed Eq. 2-3 with armature reaction: `Kv_eff = Kv max(1 - kar |i|, 0.1)`;
+//! - paper Eq. 2-3 with armature reaction: `Kv_eff = Kv max(1 - kar |i|, 0.1)`;
 //! - `dtheta/dt = w` (the rotor angle, for the tacho ripple and the encoder).
 
 use super::{Effects, Motor};
@@ -120,7 +120,7 @@ impl Dynamics {
         self.e.tc > 0.0 || self.e.ts > 0.0
     }
 
-    /// Time derivative of the state (seed Eq. 1 and 4 with the effects).
+    /// Time derivative of the state (paper Eq. 1 and 4 with the effects).
     fn derivative(&self, s: State, h: &Hold) -> State {
         let (m, e) = (&self.m, &self.e);
         let kv = self.kv_eff(s.i);

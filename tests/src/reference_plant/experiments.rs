@@ -1,4 +1,4 @@
-//! Input sequences for the reference plant: the operating conditions of seed Section 6
+//! Input sequences for the reference plant: the operating conditions of paper's Section 6
 //! (start, voltage steps, load step) plus a reversal, a chirp and a ramp, sampled at a
 //! given rate with the record CSV's convention (sample `k` holds the input from `t_k` to
 //! `t_k+1`).

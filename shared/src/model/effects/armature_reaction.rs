@@ -1,5 +1,5 @@
 //! `armature_reaction`: the armature's own field weakens the main flux as the current
-//! grows, so the back-EMF and torque constant of seed Eq. 2-3 fall to `kv (1 - kar |i|)`
+//! grows, so the back-EMF and torque constant of paper Eq. 2-3 fall to `kv (1 - kar |i|)`
 //! (kept above a tenth). The linear step keeps `kv`; the loss enters as held inputs: the
 //! voltage gains back `(1 - flux) kv w` and the torque loses `(1 - flux) kv i`.
 

@@ -1,5 +1,5 @@
 //! `brush_drop`: the brushes take a constant voltage `vb` with the sign of the current from
-//! seed Eq. 1; no current flows while the driving voltage `v - Kv w` stays within `vb` (the
+//! paper Eq. 1; no current flows while the driving voltage `v - Kv w` stays within `vb` (the
 //! dead zone of [`crate::model::sim`] on the current).
 
 use super::entry::{ids, one, EffectSpec, Signature};

@@ -1,5 +1,5 @@
 //! `coulomb_friction`: a constant friction torque against the motion, `tc sign(w)`, added
-//! to the load of seed Eq. 4, with stiction: a shaft at rest stays there while the drive
+//! to the load of paper Eq. 4, with stiction: a shaft at rest stays there while the drive
 //! torque `Kv i - tl` stays within `tc` (the dead zone of [`crate::model::sim`]).
 
 use super::entry::{ids, one, EffectSpec, Signature};

@@ -68,7 +68,7 @@ pub struct Scales {
 }
 
 impl Scales {
-    /// Stall torque `Kv v_max / Ra` of motor `p` (seed Eq. 1-4 at standstill): the scale of
+    /// Stall torque `Kv v_max / Ra` of motor `p` (paper Eq. 1-4 at standstill): the scale of
     /// the torque effects.
     pub fn stall_torque(&self, p: &ModelParams) -> f32 {
         p.get(ParamId::Kv) * self.v_max / p.get(ParamId::Ra)

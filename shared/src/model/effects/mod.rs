@@ -26,7 +26,7 @@ pub use entry::{EffectBounds, EffectSpec, Scales, Signature, SignatureSample};
 use crate::model::params::{ModelParams, MOTOR_SPECS};
 use crate::param_id::{ParamId, ParamSpec, PARAM_COUNT};
 
-/// One effect that the linear model of seed Eq. 5 lacks.
+/// One effect that the linear model of paper Eq. 5 lacks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Effect {
@@ -214,7 +214,7 @@ impl ParamId {
         UNITS[self as usize]
     }
 
-    /// Seed Table 1 bounds for the motor parameters; for effect parameters a default search
+    /// Paper's Table 1 bounds for the motor parameters; for effect parameters a default search
     /// range that a caller usually narrows to the motor at hand.
     pub const fn default_bounds(self) -> (f32, f32) {
         DEFAULT_BOUNDS[self as usize]
@@ -257,7 +257,7 @@ mod tests {
 
     #[test]
     fn search_bounds_name_the_effects_own_parameters_in_its_physical_range() {
-        let p = ModelParams::SEED_MOTOR;
+        let p = ModelParams::PAPER_MOTOR;
         let s = Scales {
             v_max: 50.0,
             omega_max: 300.0,

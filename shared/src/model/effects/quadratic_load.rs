@@ -1,5 +1,5 @@
 //! `quadratic_load`: a fan or pump load whose torque grows with the square of the speed,
-//! `kq w |w|`, added to the load of seed Eq. 4.
+//! `kq w |w|`, added to the load of paper Eq. 4.
 
 use super::entry::{ids, one, EffectSpec, Signature};
 use crate::param_id::{ParamId, ParamSpec};

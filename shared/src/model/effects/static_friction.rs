@@ -2,7 +2,7 @@
 //! at rest breaks away only when the drive torque exceeds `tc + ts`; turning, the friction
 //! falls from there towards the Coulomb torque `tc` over a speed scale `ws`:
 //! `F(w) = tc + ts exp(-(w/ws)^2)` (Armstrong-Hélouvry's static + Coulomb + Stribeck
-//! model, without its viscous term, which is seed Eq. 4's `B w`). It extends
+//! model, without its viscous term, which is paper Eq. 4's `B w`). It extends
 //! `coulomb_friction` (`tc` is that entry's): the diagnosis tries it on top of it.
 
 use super::entry::{ids, EffectBounds, EffectSpec, Signature};
