@@ -287,7 +287,7 @@ fn require_flip_link() {
         .is_ok_and(|status| status.success());
     assert!(
         found,
-        "flip-link is missing: the firmware links with it; install it with `cargo install flip-link --locked` (.ci/run does)"
+        "flip-link is missing: the firmware links with it; `cargo xtask test` installs it (or `cargo install flip-link --locked`)"
     );
 }
 
@@ -355,7 +355,7 @@ impl Qemu {
             .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::piped())
             .spawn()
-            .expect("qemu-system-arm must be installed (apt-get install qemu-system-arm)");
+            .expect("qemu-system-arm is missing: `cargo xtask test` installs it (or `apt-get install qemu-system-arm`)");
         let mut stdout = std::io::BufReader::new(child.stdout.take().expect("piped stdout"));
         let pty = loop {
             let mut line = Vec::new();
