@@ -3,8 +3,9 @@
 use crate::commands::{
     board, commission, compare, demo, diagnose, identify, import_scope, simulate, tune, validate,
 };
-use anyhow::Result;
+use anyhow::{bail, Result};
 use clap::{Parser, Subcommand};
+use std::path::Path;
 
 /// Identify DC motor parameters (Ra, La, J, B, Kv and effects) from speed (and current) records.
 #[derive(Parser, Debug)]
@@ -39,12 +40,38 @@ enum Command {
     /// and fit, run on the host (try a motor and the limits before flashing a board).
     Commission(commission::CommissionArgs),
     /// Run the whole job on a built-in default: the paper's motor, simulated, identified from
-    /// speed only (seed workflow) and from speed and current.
+    /// speed only (the paper's workflow) and from speed and current.
     Demo(demo::DemoArgs),
 }
 
+/// A check that ran and failed (`validate`: the parameters do not predict the records to
+/// their noise floor): exit status 3, apart from the errors of status 1 (docs/CONTRACTS.md).
+#[derive(Debug)]
+pub struct CheckFailed(pub String);
+
+impl std::fmt::Display for CheckFailed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for CheckFailed {}
+
 /// Run a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
+    let (inputs, outputs, plots) = paths(&cli.command);
+    crate::output::check_paths(&inputs, &outputs)?;
+    for plot in plots {
+        if !plot
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+        {
+            bail!(
+                "cannot plot to {}: plots are PNG, name it *.png",
+                plot.display()
+            );
+        }
+    }
     match cli.command {
         Command::Simulate(a) => simulate::run(&a),
         Command::Identify(a) => identify::run(&a),
@@ -57,4 +84,52 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Tune(a) => tune::run(&a),
         Command::Compare(a) => compare::run_compare(&a),
     }
+}
+
+/// The files a command reads, the files it writes and (among those) its plots, checked
+/// before any work ([`crate::output::check_paths`]): a typo in an output path must not lose
+/// a long run, and no output may replace an input.
+fn paths(command: &Command) -> (Vec<&Path>, Vec<&Path>, Vec<&Path>) {
+    let mut inputs: Vec<&Path> = Vec::new();
+    let mut json = None;
+    let mut plot = None;
+    let mut other = None;
+    match command {
+        Command::Simulate(a) => other = Some(a.out.as_path()),
+        Command::Identify(a) => {
+            inputs.extend(a.files.iter().map(|p| p.as_path()));
+            (json, plot) = (a.json.as_deref(), a.plot.as_deref());
+        }
+        Command::ImportScope(a) => {
+            inputs.push(&a.file);
+            other = Some(a.out.as_path());
+        }
+        Command::Demo(_) => {}
+        Command::Diagnose(a) => {
+            inputs.extend(a.train.iter().chain(&a.holdout).map(|p| p.as_path()));
+            (json, plot) = (a.json.as_deref(), a.plot.as_deref());
+        }
+        Command::Board(a) => {
+            if let board::BoardAction::Identify { file, .. } = &a.action {
+                inputs.push(file);
+            }
+            json = a.json.as_deref();
+        }
+        Command::Commission(a) => json = a.json.as_deref(),
+        Command::Validate(a) => {
+            inputs.push(&a.params);
+            inputs.extend(a.files.iter().map(|p| p.as_path()));
+            (json, plot) = (a.json.as_deref(), a.plot.as_deref());
+        }
+        Command::Tune(a) => {
+            inputs.push(&a.params);
+            (json, plot) = (a.json.as_deref(), a.plot.as_deref());
+        }
+        Command::Compare(a) => {
+            inputs.extend(a.files.iter().map(|p| p.as_path()));
+            (json, plot) = (a.json.as_deref(), a.plot.as_deref());
+        }
+    }
+    let outputs = [json, plot, other].into_iter().flatten().collect();
+    (inputs, outputs, plot.into_iter().collect())
 }

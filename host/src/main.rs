@@ -8,6 +8,7 @@ mod comparison;
 mod csvio;
 mod fit;
 mod fit_plot;
+mod interrupt;
 mod limits_args;
 mod output;
 mod plot;
@@ -22,6 +23,7 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    interrupt::install();
     let args = match cli::Cli::try_parse() {
         Ok(a) => a,
         Err(e) => {
@@ -35,6 +37,10 @@ fn main() -> ExitCode {
         Err(e) => {
             // One line: the whole context chain joined.
             let msg: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            if e.downcast_ref::<cli::CheckFailed>().is_some() {
+                eprintln!("motor-id: check failed: {}", msg.join(": "));
+                return ExitCode::from(3);
+            }
             eprintln!("motor-id: error: {}", msg.join(": "));
             ExitCode::FAILURE
         }

@@ -148,6 +148,10 @@ pub enum Loop {
     Speed,
 }
 
+/// Most samples of a step response (its horizon is ten or twenty loop time constants at
+/// the control rate; a tiny bandwidth would otherwise ask for terabytes).
+pub const MAX_STEP_SAMPLES: usize = 2_000_000;
+
 /// The step response of `which` loop with `gains` on motor `p` (effects included), from
 /// rest, for `duration` s: a small-signal step, at most a tenth of the current limit
 /// `voltage / Ra` (current loop) or of the no-load speed `voltage / Kv` (speed loop), and
@@ -173,7 +177,17 @@ pub fn step(
         Loop::Current => current_ref,
         Loop::Speed => (0.1 * design.voltage / kv).min(0.5 * current_ref / gains.speed_loop.kp),
     };
-    let n = (duration * design.rate_hz).round() as usize;
+    let samples = (duration * design.rate_hz).round();
+    if samples.is_nan() || samples > MAX_STEP_SAMPLES as f64 {
+        bail!(
+            "the {} loop's step response would take {samples:.3e} samples (at most {MAX_STEP_SAMPLES}): raise --current-bandwidth, or lower --rate or --phase-margin",
+            match which {
+                Loop::Current => "current",
+                Loop::Speed => "speed",
+            }
+        );
+    }
+    let n = samples as usize;
     let (mut t, mut y, mut volts) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::new());
     for k in 0..n {
         let r = sim.reading();

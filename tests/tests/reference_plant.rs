@@ -812,7 +812,13 @@ fn validate_puts_the_true_parameters_at_the_noise_floor_and_perturbed_ones_above
         let out = dir.path().join(format!("validate_{kv_scale}.json"));
         let mut args = vec!["validate", "--params", s(&params), "--json", s(&out)];
         args.extend(files.iter().map(|f| s(f)));
-        run_ok(&args);
+        // Exit status 3: the check ran and the parameters failed it (docs/CONTRACTS.md).
+        let status = motor_id_tests::run(&args).status.code();
+        assert_eq!(
+            status,
+            Some(if kv_scale == 1.0 { 0 } else { 3 }),
+            "{args:?}"
+        );
         json(&out)
     };
     let truth = check(1.0);

@@ -1,6 +1,7 @@
 //! `motor-id tune`: current-loop and speed-loop PI gains from identified parameters, and
 //! their step responses simulated on the identified model ([`crate::tuning`]).
 
+use crate::limits_args::within;
 use crate::output::write_json;
 use crate::plot::{draw, Panel, Series};
 use crate::report::{ByParam, Num, SCHEMA_VERSION};
@@ -21,23 +22,27 @@ pub struct TuneArgs {
     #[arg(long, value_name = "REPORT.json")]
     pub params: PathBuf,
     /// Current-loop bandwidth [Hz] (at most a tenth of the rate).
-    #[arg(long, default_value_t = 200.0)]
-    pub current_bandwidth: f64,
-    /// Speed-loop phase margin [deg] (symmetric optimum; 37 is Kessler's a = 2).
-    #[arg(long, default_value_t = 60.0)]
-    pub phase_margin: f64,
-    /// Control rate: sampling and PWM update [Hz].
-    #[arg(long, default_value_t = 10_000.0)]
-    pub rate: f64,
+    #[arg(long, default_value_t = 200.0, value_parser = within(0.01, 1e6))]
+    pub current_bandwidth: f32,
+    /// Speed-loop phase margin [deg] (symmetric optimum; 37 is Kessler's a = 2; 1 to 85).
+    #[arg(long, default_value_t = 60.0, value_parser = within(1.0, 85.0))]
+    pub phase_margin: f32,
+    /// Control rate: sampling and PWM update [Hz] (1 to 10,000,000).
+    #[arg(long, default_value_t = 10_000.0, value_parser = within(1.0, 1e7))]
+    pub rate: f32,
     /// Voltage limit of the bridge [V].
-    #[arg(long, default_value_t = 50.0)]
-    pub voltage: f64,
+    #[arg(long, default_value_t = 50.0, value_parser = within(f32::MIN_POSITIVE, 1e5))]
+    pub voltage: f32,
     /// Write the JSON report here.
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write a PNG plot of the two step responses here.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// No progress on stderr. This command's work is short and shows none; the option is
+    /// taken as on every command, so that scripts can pass it everywhere.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// The `tune` report.
@@ -66,14 +71,11 @@ const RULES: &str = "current loop: PI zero on the armature pole (Ti = La/Ra, Kp 
 pub fn run(a: &TuneArgs) -> Result<()> {
     let p = read_params(&a.params)?;
     let design = Design {
-        current_bandwidth_hz: a.current_bandwidth,
-        phase_margin_deg: a.phase_margin,
-        rate_hz: a.rate,
-        voltage: a.voltage,
+        current_bandwidth_hz: f64::from(a.current_bandwidth),
+        phase_margin_deg: f64::from(a.phase_margin),
+        rate_hz: f64::from(a.rate),
+        voltage: f64::from(a.voltage),
     };
-    if !(a.rate.is_finite() && a.rate > 0.0 && a.voltage.is_finite() && a.voltage > 0.0) {
-        anyhow::bail!("--rate and --voltage must be positive numbers");
-    }
     let g = gains(&p, &design)?;
     // Ten current-loop time constants; ten speed-loop ones.
     let tau_i = 1.0 / (std::f64::consts::TAU * g.current_loop.bandwidth_hz);
@@ -87,8 +89,8 @@ pub fn run(a: &TuneArgs) -> Result<()> {
             .map(|id| (id, Num(p.get(id))))
             .collect(),
         rules: RULES,
-        rate_hz: a.rate,
-        voltage: a.voltage,
+        rate_hz: design.rate_hz,
+        voltage: design.voltage,
         gains: g,
         current_step,
         speed_step,

@@ -29,6 +29,10 @@ pub struct ValidateArgs {
     /// Write a PNG plot (measured vs predicted speed of each record) here.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// No progress on stderr. This command's work is short and shows none; the option is
+    /// taken as on every command, so that scripts can pass it everywhere.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Run `validate`.
@@ -43,5 +47,11 @@ pub fn run(a: &ValidateArgs) -> Result<()> {
     if let Some(path) = &a.plot {
         plot(path, &records, &predicted)?;
     }
-    Ok(())
+    match report.all_adequate {
+        true => Ok(()),
+        false => Err(crate::cli::CheckFailed(
+            "the parameters do not predict every record to its noise floor".into(),
+        )
+        .into()),
+    }
 }

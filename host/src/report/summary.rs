@@ -42,8 +42,14 @@ pub fn summary(
         let free = ident.params.iter().find(|c| c.id == p);
         let v = id.params.get(p);
         let status = match free {
+            Some(_) if at_bound(v, spec.bounds[p.index()]).is_some() => format!(
+                "at its bound {} (not measured: widen --bounds)",
+                sig(at_bound(v, spec.bounds[p.index()]).unwrap_or(v))
+            ),
             Some(c) if c.pinned => match c.std {
-                Some(sd) => format!("+- {:.3} %", 100.0 * sd / v.abs().max(f32::MIN_POSITIVE)),
+                Some(sd) if v == 0.0 => format!("+- {} {} (at zero)", sig(sd), p.unit()),
+                Some(sd) if sd > v.abs() => "NOT pinned (uncertainty above 100 %)".into(),
+                Some(sd) => format!("+- {:.3} %", 100.0 * sd / v.abs()),
                 None => "pinned".into(),
             },
             Some(_) => "NOT pinned by this data".into(),
@@ -112,16 +118,61 @@ pub fn summary(
         s += &format!("  flat along {} (log scale)\n", terms.join(" "));
     }
     if !ident.all_pinned() {
-        s += "  parameters marked NOT pinned fit the data equally well over a range: add the armature \
-              current (column i), a known load-torque step (column tl), or fix what was measured \
-              otherwise (--fix ra=...)\n";
+        s += &unpinned_advice(id.cost.rmse_current.is_some());
     }
     s
 }
 
+/// The bound `value` sits at, if any: within 0.1 % of the range of it (on a log scale when
+/// both bounds are positive, as the search runs). A fit that ends there was stopped by the
+/// bound, so the value is not a measurement.
+fn at_bound(value: f32, (lo, hi): (f32, f32)) -> Option<f32> {
+    let near = |bound: f32| match lo > 0.0 && value > 0.0 {
+        true => (value / bound).ln().abs() <= 1e-3 * (hi / lo).ln(),
+        false => (value - bound).abs() <= 1e-3 * (hi - lo),
+    };
+    [lo, hi].into_iter().find(|&b| b.is_finite() && near(b))
+}
+
+/// What to add when some parameters are not pinned: the armature current only when the
+/// records lack it.
+fn unpinned_advice(with_current: bool) -> String {
+    let add = match with_current {
+        false => {
+            "add the armature current (column i), a known load-torque step (column tl), \
+                  a longer or richer excitation,"
+        }
+        true => {
+            "add a known load-torque step (column tl), a longer or richer excitation \
+                 (the speed must change on the mechanical time scale),"
+        }
+    };
+    format!(
+        "  parameters marked NOT pinned fit the data equally well over a range: {add} or fix \
+         what was measured otherwise (--fix ra=...)\n"
+    )
+}
+
 #[cfg(test)]
 mod tests {
-    use super::sig;
+    use super::{sig, unpinned_advice};
+
+    #[test]
+    fn a_value_at_a_bound_is_named_so() {
+        assert_eq!(super::at_bound(2.0, (0.1, 2.0)), Some(2.0));
+        assert_eq!(super::at_bound(0.1001, (0.1, 2.0)), Some(0.1));
+        assert_eq!(super::at_bound(1.0, (0.1, 2.0)), None);
+        assert_eq!(super::at_bound(0.0, (0.0, 0.5)), Some(0.0));
+        assert_eq!(super::at_bound(0.01, (0.0, 0.5)), None);
+        assert_eq!(super::at_bound(1.5e-6, (1e-6, 1.0)), None);
+    }
+
+    #[test]
+    fn the_advice_asks_for_current_only_where_it_is_missing() {
+        assert!(unpinned_advice(false).contains("column i"));
+        assert!(!unpinned_advice(true).contains("column i"));
+        assert!(unpinned_advice(true).contains("column tl"));
+    }
 
     #[test]
     fn significant_digits() {

@@ -11,7 +11,7 @@ use motor_id_shared::wire::protocol::{
 };
 use std::collections::VecDeque;
 use std::io::{Read, Write};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 /// A serial connection speaking frames.
@@ -52,7 +52,7 @@ impl Connection {
     fn receive_until(&mut self, deadline: Instant, wait: Duration) -> Result<BoardMessage> {
         let mut buf = [0u8; 256];
         loop {
-            if INTERRUPTED.swap(false, Ordering::SeqCst) {
+            if crate::interrupt::take_over().swap(false, Ordering::SeqCst) {
                 return Err(anyhow::Error::new(Interrupted));
             }
             if Instant::now() > deadline {
@@ -235,13 +235,10 @@ impl std::fmt::Display for Interrupted {
 
 impl std::error::Error for Interrupted {}
 
-/// Set by Ctrl-C, taken by the loops that wait for the board.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
 /// From now on Ctrl-C while a job runs aborts it on the board (see `abort`) and ends the
-/// command. A handler that cannot be installed leaves Ctrl-C as it was.
+/// command ([`crate::interrupt`]).
 pub fn listen_for_ctrl_c() {
-    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+    crate::interrupt::take_over();
 }
 
 /// After Ctrl-C during a job: ask the board to abort it and wait (up to the timeout, or a
