@@ -468,3 +468,72 @@ fn diagnose_warns_of_a_held_out_record_of_another_motor() {
     ]);
     assert!(!String::from_utf8_lossy(&out.stderr).contains("warning"));
 }
+
+/// An output that is an input (directly or through a link) is refused before the work and
+/// the input is left as it was; a plot that is not `*.png` is refused before the fit; the
+/// same for `import-scope --out` onto its own input.
+#[test]
+fn an_output_onto_an_input_is_refused_and_the_input_kept() {
+    let d = tempfile::tempdir().unwrap();
+    let rec = d.path().join("rec.csv");
+    motor_id_tests::simulate(&rec, &["--profile", "start", "--duration", "2"]);
+    let before = std::fs::read(&rec).unwrap();
+    let link = d.path().join("alias.json");
+    std::os::unix::fs::symlink(&rec, &link).unwrap();
+    for out in [&rec, &link] {
+        let err = run_err(&["identify", s(&rec), "--json", s(out), "-q"]);
+        assert!(err.contains("refusing to write"), "{err}");
+    }
+    let err = run_err(&[
+        "identify",
+        s(&rec),
+        "--plot",
+        s(&d.path().join("fit.svg")),
+        "-q",
+    ]);
+    assert!(err.contains("*.png"), "{err}");
+    let scope = file(&d, "scope.csv", "t,ch1\n0,1\n0.001,1\n");
+    let err = run_err(&[
+        "import-scope",
+        s(&scope),
+        "--out",
+        s(&scope),
+        "--tacho-gain",
+        "0.1",
+        "--voltage",
+        "10",
+    ]);
+    assert!(err.contains("refusing to write"), "{err}");
+    assert_eq!(std::fs::read(&rec).unwrap(), before);
+}
+
+/// `tune`'s options at hostile values: a usage error (status 2) or one line (status 1),
+/// never a panic or an allocation without bound.
+#[test]
+fn tune_refuses_hostile_options_without_a_panic() {
+    let d = tempfile::tempdir().unwrap();
+    let params = file(
+        &d,
+        "p.json",
+        r#"{"params": {"ra": 3.412, "la": 0.0573, "j": 0.0424, "b": 0.00267, "kv": 0.1604}}"#,
+    );
+    for bad in [
+        ["--phase-margin", "89.9999999"],
+        ["--current-bandwidth", "1e-9"],
+        ["--current-bandwidth", "1e-300"],
+        ["--rate", "4294967297"],
+        ["--rate", "nan"],
+        ["--voltage", "-1"],
+    ] {
+        let err = run_usage_err(&["tune", "--params", s(&params), bad[0], bad[1]]);
+        assert!(err.contains(bad[0]), "{bad:?}: {err}");
+    }
+    let err = run_err(&[
+        "tune",
+        "--params",
+        s(&params),
+        "--current-bandwidth",
+        "0.01",
+    ]);
+    assert!(err.contains("samples"), "{err}");
+}

@@ -76,8 +76,10 @@ fn first_power_up_commissions_and_the_host_commissions_again_after_clear() {
     run_ok(&q.board_args(&["--json", s(&boot), "params"]));
     assert_paper_motor(&json(&boot));
     run_ok(&q.board_args(&["clear"]));
-    let out = run_ok(&q.board_args(&["params"]));
+    // Nothing stored: the earlier report is removed, never left to be read as the board's.
+    let out = run_ok(&q.board_args(&["--json", s(&boot), "params"]));
     assert!(out.contains("no parameters stored"), "{out}");
+    assert!(!boot.exists(), "a stale report was left");
     run_ok(&q.board_args(&["--json", s(&again), "-q", "commission"]));
     let r = json(&again);
     assert_paper_motor(&r);

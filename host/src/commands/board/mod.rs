@@ -79,6 +79,7 @@ pub enum BoardAction {
     Clear,
     /// Show the limits commissioning works within, or set those given (stored on the board
     /// beside the parameters; the others keep the board's values).
+    #[command(allow_negative_numbers = true)]
     Config {
         #[command(flatten)]
         limits: LimitArgs,
@@ -146,6 +147,7 @@ pub fn run(a: &BoardArgs) -> Result<()> {
             Ok(r) => r,
             Err(why) => {
                 println!("{why}: the board commissions at its next power-up");
+                remove_stale_report(a.json.as_deref())?;
                 return Ok(());
             }
         },
@@ -179,6 +181,26 @@ pub fn run(a: &BoardArgs) -> Result<()> {
         write_json(path, &report)?;
     }
     Ok(())
+}
+
+/// A `--json` report of an earlier run, removed when this run has none to write (the board
+/// holds no parameters), so that old values are never read as the board's; says so.
+fn remove_stale_report(path: Option<&std::path::Path>) -> Result<()> {
+    let Some(path) = path else { return Ok(()) };
+    match std::fs::remove_file(path) {
+        Ok(()) => {
+            eprintln!(
+                "removed the earlier report {}: the board holds no parameters",
+                path.display()
+            );
+            Ok(())
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(anyhow!(
+            "cannot remove the earlier report {}: {e}",
+            path.display()
+        )),
+    }
 }
 
 /// The stored parameters, or why there are none.
