@@ -9,6 +9,7 @@
 
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
+use motor_id_shared::device::unpinned::why_not_pinned;
 use motor_id_shared::device::virtual_board::commission;
 use motor_id_shared::model::synth::table_one_motor;
 use motor_id_shared::param_id::ParamId;
@@ -37,6 +38,12 @@ fn main() {
     let (mut trips, mut like, mut like_ok, mut all_ok) = (0, 0, 0, 0);
     let (mut pinned, mut within) = (0, 0);
     let mut outside: BTreeMap<&str, usize> = BTreeMap::new();
+    let mut unpinned: BTreeMap<String, usize> = BTreeMap::new();
+    let current_count = if adc_bits > 0 {
+        limits.adc_counts(adc_bits).1
+    } else {
+        0.0
+    };
     let mut seconds = Vec::new();
     let mut evaluations = Vec::new();
     for m in 0..motors {
@@ -78,6 +85,12 @@ fn main() {
             let t = truth.get(id);
             let rel = (e.value / t - 1.0).abs();
             ok &= e.pinned() && rel <= 0.03;
+            if let (false, Some(plan)) = (e.pinned(), &c.plan) {
+                let why = why_not_pinned(id, &report, plan, current_count);
+                let kind = format!("{why:?}");
+                let kind = kind.split([' ', '{']).next().unwrap_or("").to_string();
+                *unpinned.entry(format!("{} {kind}", id.name())).or_default() += 1;
+            }
             if e.pinned() {
                 pinned += 1;
                 let inside = (e.value - t).abs() <= 3.0 * e.std;
@@ -113,6 +126,7 @@ fn main() {
         "pinned within 3 reported std: {:.1} % of {pinned}; outside, by parameter: {outside:?}",
         pct(within, pinned)
     );
+    println!("not pinned, by parameter and reason: {unpinned:?}");
     println!(
         "fit evaluations: median {}, 90 % {}, most {}",
         at(0.5),

@@ -173,3 +173,43 @@ fn commission_sim_reports_the_motor_its_plan_and_its_records() {
         assert_eq!(out.status.code(), Some(2), "{bad:?}");
     }
 }
+
+/// A motor whose mechanical time scale (about 76 s) a 10 s budget cannot cover: what it
+/// does not pin, the report says why (the time scale), and the default 60 s budget pins.
+#[test]
+fn a_parameter_not_pinned_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let slow = "ra=3.412,la=0.0573,j=0.5,b=0.00267,kv=0.1604";
+    let commission = |budget: &str| {
+        let report = dir.path().join(format!("c{budget}.json"));
+        run_ok(&[
+            "commission",
+            "--sim",
+            "--motor",
+            slow,
+            "--effect",
+            "coulomb_friction:tc=0.05",
+            "--rate",
+            "5000",
+            "--budget",
+            budget,
+            "--json",
+            s(&report),
+            "-q",
+        ]);
+        json(&report)
+    };
+    let short = commission("10");
+    let unpinned = short["unpinned"].as_object().unwrap();
+    assert!(unpinned.contains_key("b"), "{short}");
+    for (name, why) in unpinned {
+        let pinned = &short["motor"]["identifiability"]["parameters"][name]["pinned"];
+        assert_eq!(pinned, false, "{name}: {short}");
+        assert!(
+            why.as_str().unwrap().contains("mechanical time scales"),
+            "{name}: {why}"
+        );
+    }
+    let long = commission("60");
+    assert_eq!(long["unpinned"].as_object().unwrap().len(), 0, "{long}");
+}

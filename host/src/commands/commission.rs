@@ -14,13 +14,14 @@ use anyhow::{bail, Result};
 use clap::Args;
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
+use motor_id_shared::device::unpinned::why_not_pinned;
 use motor_id_shared::device::virtual_board::commission;
 use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::{BoardMessage, Plan};
-use motor_id_shared::ModelParams;
+use motor_id_shared::{ModelParams, ParamId};
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The arguments of `commission`.
 #[derive(Args, Debug)]
@@ -85,10 +86,9 @@ struct CommissionReport {
     motor: Option<BoardReport>,
     /// Why it was not commissioned (null: commissioned).
     refusal: Option<String>,
+    /// Why each parameter the data did not pin is not pinned, by name (empty: all pinned).
+    unpinned: BTreeMap<&'static str, String>,
 }
-
-/// Set by Ctrl-C: the virtual board hears it as the host's abort.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 /// Run `commission`.
 pub fn run(a: &CommissionArgs) -> Result<()> {
@@ -113,9 +113,10 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
     if a.adc_bits > 0 {
         (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(a.adc_bits);
     }
-    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+    // Ctrl-C: the virtual board hears it as the host's abort.
+    let interrupted = crate::interrupt::take_over();
     let bar = FitProgress::new(a.quiet);
-    let outcome = commission(plant, limits, a.seed, Some(&INTERRUPTED), &mut |m| {
+    let outcome = commission(plant, limits, a.seed, Some(interrupted), &mut |m| {
         if let BoardMessage::Planned(plan) = m {
             if !a.quiet {
                 bar.println(&plan_text(plan));
@@ -125,6 +126,25 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         }
     });
     bar.finish();
+    let current_count = match a.adc_bits {
+        0 => 0.0,
+        bits => limits.adc_counts(bits).1,
+    };
+    let unpinned = match (&outcome.result, &outcome.plan) {
+        (Ok(r), Some(plan)) => r
+            .estimates
+            .iter()
+            .filter(|e| !e.pinned())
+            .filter_map(|e| ParamId::ALL.get(usize::from(e.param)))
+            .map(|&id| {
+                (
+                    id.name(),
+                    why_not_pinned(id, r, plan, current_count).to_string(),
+                )
+            })
+            .collect(),
+        _ => BTreeMap::new(),
+    };
     let (motor, refusal) = match &outcome.result {
         Ok(r) => (Some(BoardReport::new(r)?), None),
         Err(JobEnd::Aborted) => (None, Some("interrupted: the experiment was stopped".into())),
@@ -136,6 +156,7 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         experiment_seconds: Num(outcome.seconds),
         motor,
         refusal,
+        unpinned,
     };
     if let Some(path) = &a.json {
         write_json(path, &report)?;
@@ -148,6 +169,9 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
     }
     if let Some(m) = &report.motor {
         print!("{}", m.text());
+        for (name, why) in &report.unpinned {
+            println!("{name} not pinned: {why}");
+        }
         println!("experiment: {:.1} s", outcome.seconds);
     }
     Ok(())

@@ -19,5 +19,6 @@ pub mod record_store;
 pub mod report;
 pub mod service;
 pub mod trace;
+pub mod unpinned;
 #[cfg(any(test, feature = "std"))]
 pub mod virtual_board;

@@ -1,0 +1,187 @@
+//! Why a commissioning left a parameter not pinned, from what the probe measured and the
+//! experiment planned ([`Plan`]) and the current reading's resolution: the time scale the
+//! experiment could not cover, a signal below one count of the ADC, or, when neither holds,
+//! records that do not separate it from the others. The board's report says which
+//! parameters are not pinned (a NaN σ); this names the likely reason, so that a user knows
+//! what to change (the budget, the limits, the drive's ADC) instead of guessing.
+
+use crate::param_id::ParamId;
+use crate::wire::protocol::{MotorReport, Plan};
+
+/// Mechanical time scales the slow record must span for J, B, Kv and Coulomb friction to
+/// show: a step's rise and its settling (the design aims at [`crate::device::design::SLOW_SPAN`]).
+pub const MECHANICAL_SPAN: f32 = 3.0;
+/// Record steps per electrical time constant below which La/Ra is not sampled.
+pub const ELECTRICAL_STEPS: f32 = 2.0;
+
+/// Why a parameter is not pinned.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Unpinned {
+    /// The slow record (`covered` s) spans less than [`MECHANICAL_SPAN`] of the
+    /// mechanical time scale the probe measured (`needed` s is that span): the budget could
+    /// not cover the mechanical mode.
+    TimeScale {
+        /// Length of the slow record [s].
+        covered: f32,
+        /// Length it needed [s].
+        needed: f32,
+    },
+    /// The electrical time constant (`tau_e` s) is shorter than [`ELECTRICAL_STEPS`] steps
+    /// of the fast record (`step` s, the drive's fastest sampling): La/Ra is not sampled.
+    FasterThanSampling {
+        /// La/Ra from the probe [s].
+        tau_e: f32,
+        /// Step of the fast record [s].
+        step: f32,
+    },
+    /// The current the parameter accounts for (`signal` A: viscous friction at the top
+    /// speed, B ω / Kv; Coulomb friction, tc / Kv) is below one count of the current
+    /// reading (`count` A).
+    BelowResolution {
+        /// Current the parameter accounts for [A].
+        signal: f32,
+        /// One count of the current reading [A].
+        count: f32,
+    },
+    /// None of the above: the records do not separate it from the other parameters.
+    NotSeparated,
+}
+
+/// Why `param` is not pinned in `report`, given the commissioning's `plan` and one count
+/// of the current reading `current_count` [A] (0 when the reading is not quantised).
+pub fn why_not_pinned(
+    param: ParamId,
+    report: &MotorReport,
+    plan: &Plan,
+    current_count: f32,
+) -> Unpinned {
+    let value = |p: ParamId| report.get(p.index() as u8).map_or(f32::NAN, |e| e.value);
+    let mechanical = matches!(param, ParamId::J | ParamId::B | ParamId::Kv | ParamId::Tc);
+    let covered = plan.slow_dt * plan.slow_samples as f32;
+    let needed = MECHANICAL_SPAN * plan.tau_m;
+    if mechanical && covered < needed {
+        return Unpinned::TimeScale { covered, needed };
+    }
+    if param == ParamId::La && plan.tau_e < ELECTRICAL_STEPS * plan.fast_dt {
+        return Unpinned::FasterThanSampling {
+            tau_e: plan.tau_e,
+            step: plan.fast_dt,
+        };
+    }
+    let kv = value(ParamId::Kv);
+    let signal = match param {
+        // Viscous friction at the top speed the records reach, about V / Kv.
+        ParamId::B => value(ParamId::B) * plan.volts / (kv * kv),
+        ParamId::Tc => value(ParamId::Tc) / kv,
+        _ => f32::NAN,
+    };
+    if signal.abs() < current_count {
+        return Unpinned::BelowResolution {
+            signal: signal.abs(),
+            count: current_count,
+        };
+    }
+    Unpinned::NotSeparated
+}
+
+impl core::fmt::Display for Unpinned {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Unpinned::TimeScale { covered, needed } => write!(
+                f,
+                "the slow record ({covered:.3} s) covers less than {MECHANICAL_SPAN} mechanical time scales ({needed:.3} s): give a larger --budget"
+            ),
+            Unpinned::FasterThanSampling { tau_e, step } => write!(
+                f,
+                "La/Ra ({tau_e:.3e} s) is shorter than {ELECTRICAL_STEPS} steps of the fast record ({step:.3e} s): the drive samples too slowly for it"
+            ),
+            Unpinned::BelowResolution { signal, count } => write!(
+                f,
+                "its current ({signal:.3e} A) is below one count of the current reading ({count:.3e} A)"
+            ),
+            Unpinned::NotSeparated => {
+                f.write_str("the records do not separate it from the other parameters")
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::protocol::Estimate;
+
+    fn plan() -> Plan {
+        Plan {
+            current_offset: 0.0,
+            breakaway_volts: 1.0,
+            ra: 1.0,
+            tau_e: 1e-3,
+            kv: 0.5,
+            tau_m: 1.0,
+            volts: 20.0,
+            fast_dt: 5e-5,
+            fast_samples: 400,
+            slow_dt: 0.01,
+            slow_samples: 600,
+            probe_seconds: 2.0,
+            planned_seconds: 10.0,
+        }
+    }
+
+    fn report(b: f32, tc: f32) -> MotorReport {
+        let mut estimates = heapless::Vec::new();
+        for (p, v) in [(ParamId::Kv, 0.5), (ParamId::B, b), (ParamId::Tc, tc)] {
+            let e = Estimate {
+                param: p.index() as u8,
+                value: v,
+                std: f32::NAN,
+            };
+            estimates.push(e).unwrap();
+        }
+        MotorReport {
+            estimates,
+            rmse_omega: 0.1,
+            evaluations: 10,
+            rank: 4,
+        }
+    }
+
+    #[test]
+    fn a_slow_record_shorter_than_the_mechanical_scale_is_the_reason_for_j() {
+        let mut p = plan();
+        p.tau_m = 3.0; // 6 s of record against 9 s needed.
+        let why = why_not_pinned(ParamId::J, &report(1e-3, 0.1), &p, 0.02);
+        assert_eq!(
+            why,
+            Unpinned::TimeScale {
+                covered: 6.0,
+                needed: 9.0
+            }
+        );
+        assert_eq!(
+            why_not_pinned(ParamId::J, &report(1e-3, 0.1), &plan(), 0.02),
+            Unpinned::NotSeparated
+        );
+    }
+
+    #[test]
+    fn a_viscous_current_below_one_count_is_the_reason_for_b() {
+        // B w / Kv = 1e-4 * 40 / 0.5 = 8 mA against a 23 mA count.
+        let why = why_not_pinned(ParamId::B, &report(1e-4, 0.1), &plan(), 0.0234);
+        assert!(matches!(why, Unpinned::BelowResolution { .. }), "{why:?}");
+        let why = why_not_pinned(ParamId::B, &report(1e-2, 0.1), &plan(), 0.0234);
+        assert_eq!(why, Unpinned::NotSeparated);
+    }
+
+    #[test]
+    fn an_electrical_time_constant_within_two_steps_is_not_sampled() {
+        let mut p = plan();
+        p.tau_e = 8e-5;
+        let why = why_not_pinned(ParamId::La, &report(1e-3, 0.1), &p, 0.02);
+        assert!(
+            matches!(why, Unpinned::FasterThanSampling { .. }),
+            "{why:?}"
+        );
+    }
+}
