@@ -5,7 +5,8 @@
 
 use crate::capacity::MAX_FREE;
 use crate::fit::linalg::{Mat, Vector};
-use crate::model::record::{noise_sigma, Record};
+use crate::model::noise::noise_sigma;
+use crate::model::record::Record;
 use crate::model::sim::Reading;
 
 /// Samples summed in f32 before the partial sum is added to the f64 total.

@@ -8,6 +8,7 @@
 
 pub mod discretise;
 pub mod effects;
+pub mod noise;
 pub mod params;
 pub mod profile;
 pub mod record;
