@@ -19,12 +19,17 @@ const RATE: f64 = 5_000.0;
 /// `m` with Coulomb friction of 5 % of the torque the default limits allow, behind a drive
 /// whose 12-bit ADC spans ±1.2 times the speed and current limits.
 fn drive(m: Motor, tc: f64, seed: u64) -> ReferenceDrive {
+    drive_at(RATE, m, tc, seed)
+}
+
+/// [`drive`] sampled at `rate` [Hz].
+fn drive_at(rate: f64, m: Motor, tc: f64, seed: u64) -> ReferenceDrive {
     let limits = Limits::DEFAULT;
     let e = Effects {
         tc,
         ..Effects::default()
     };
-    let mut d = ReferenceDrive::new(m, e, 1.0 / RATE, seed);
+    let mut d = ReferenceDrive::new(m, e, 1.0 / rate, seed);
     d.sigma = (0.1, 0.005);
     let (w, i) = limits.adc_counts(12);
     d.count = (w as f64, i as f64);
@@ -117,6 +122,56 @@ fn a_heavy_shaft_still_turning_as_the_electrical_step_starts_gives_its_resistanc
     let plan = c.plan.expect("probed");
     assert!((plan.ra / 0.6944567 - 1.0).abs() < 0.3, "{plan:?}");
     assert!(c.result.is_ok(), "{:?}", c.result);
+}
+
+#[test]
+fn a_long_electrical_time_constant_is_waited_for_on_the_reference_plant() {
+    // La/Ra of 2.3-2.7 s, the drive at 20 kHz: under the electrical step's voltage the
+    // current rises by less than its noise over hundreds of samples. Judged before it had risen at all, the step
+    // ended after 35 samples with Ra 25-30 times too high, and the mechanical step tripped.
+    let limits = Limits::DEFAULT;
+    let m = Motor {
+        ra: 0.7332661,
+        la: 1.7227129,
+        j: 0.001457048,
+        b: 0.07861381,
+        kv: 0.0430457,
+    };
+    let tc = 0.05 * m.kv * limits.current as f64;
+    let mut d = drive_at(20_000.0, m, tc, 3);
+    let c = commission(&mut d, limits, 1, None, &mut |_| {});
+    let plan = c.plan.expect("probed");
+    assert!((plan.ra as f64 / m.ra - 1.0).abs() < 0.3, "{plan:?}");
+    let report = c.result.unwrap_or_else(|e| panic!("{e:?}, plan {plan:?}"));
+    // Viscous loss 30 times the back-EMF's share (not motor-like): Ra and La, which the
+    // fast record pins, within 3 %.
+    for (id, t) in [(ParamId::Ra, m.ra), (ParamId::La, m.la)] {
+        let e = report.get(id.index() as u8).expect("estimate");
+        assert!(
+            e.pinned() && (e.value as f64 / t - 1.0).abs() < 0.03,
+            "{}: {e:?} vs {t}",
+            id.name()
+        );
+    }
+    // Viscous loss above back-EMF (Kv^2 < Ra B / 4) and La/Ra of 2.7 s: not a motor the
+    // probe measures well, but never a trip: refused, with the current under its limit.
+    let m = Motor {
+        ra: 0.6540265,
+        la: 1.7387898,
+        j: 0.33503833,
+        b: 0.2070786,
+        kv: 0.18497594,
+    };
+    let tc = 0.05 * m.kv * limits.current as f64;
+    let mut d = drive_at(20_000.0, m, tc, 4);
+    let c = commission(&mut d, limits, 1, None, &mut |_| {});
+    assert_ne!(
+        c.result.as_ref().err(),
+        Some(&JobEnd::Refused(Refusal::Trip)),
+        "{:?}",
+        c.plan
+    );
+    assert!(d.largest.0 < limits.current as f64, "{} A", d.largest.0);
 }
 
 #[test]

@@ -285,7 +285,7 @@ pub fn electrical_step<D: Drive, L: Link, W: Watchdog>(
         // step starts, its braking current below zero, and a climb counted from 0 A was no
         // rise at all (the step ended at once and Ra came out tens of times too high).
         let (mut rising_from, mut last_rise, mut k) = (f32::NEG_INFINITY, 0u32, 0u32);
-        let mut guarded = false;
+        let (mut first, mut guarded) = (f32::NAN, false);
         while k < most {
             let Some(s) = bench.guarded(Bridge::Drive(v), 1.0)? else {
                 guarded = true;
@@ -293,12 +293,18 @@ pub fn electrical_step<D: Drive, L: Link, W: Watchdog>(
             };
             k += 1;
             trace.push(s.current);
+            if k == 1 {
+                first = s.current;
+            }
             if s.current > rising_from + (3.0 * rest.sigma_current).max(0.005 * rising_from) {
                 (rising_from, last_rise) = (s.current, k);
             }
             // No rise over the last half of the step: the plateau (a slow rise that the
-            // ADC's counts show only now and then keeps it going).
-            if k >= 32 && k - last_rise > k / 2 + 16 {
+            // ADC's counts show only now and then keeps it going). Judged only once the
+            // current has risen by more than the no-current level from where it started:
+            // under a long La/Ra the first rise above the noise takes hundreds of samples,
+            // and a step judged before it ended at 35 samples with Ra thirty times too high.
+            if k >= 32 && rising_from - first > floor && k - last_rise > k / 2 + 16 {
                 break;
             }
         }
