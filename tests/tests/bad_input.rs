@@ -537,3 +537,18 @@ fn tune_refuses_hostile_options_without_a_panic() {
     ]);
     assert!(err.contains("samples"), "{err}");
 }
+
+/// The same record given twice (the same file, or a copy) is refused in one line: fitted
+/// twice, its uncertainties would shrink by a factor of 1.41 without a word.
+#[test]
+fn a_record_given_twice_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let rec = d.path().join("rec.csv");
+    motor_id_tests::simulate(&rec, &["--profile", "start", "--duration", "2"]);
+    let copy = d.path().join("copy.csv");
+    std::fs::copy(&rec, &copy).unwrap();
+    for second in [&rec, &copy] {
+        let err = run_err(&["identify", s(&rec), s(second), "-q"]);
+        assert!(err.contains("holds the same samples as"), "{err}");
+    }
+}

@@ -200,9 +200,24 @@ impl RecordReader {
         Ok(rec)
     }
 
-    /// Read and validate several record CSVs, stopping at the first that fails.
+    /// Read and validate several record CSVs, stopping at the first that fails. A record
+    /// whose samples equal an earlier one's (the same file given twice, or a copy) is
+    /// refused: fitted twice, it would shrink every uncertainty by a factor of √2 without
+    /// a word.
     pub fn read_all(&mut self, paths: &[PathBuf]) -> Result<Vec<OwnedRecord>> {
-        paths.iter().map(|p| self.read(p)).collect()
+        let mut records: Vec<OwnedRecord> = Vec::with_capacity(paths.len());
+        for p in paths {
+            let rec = self.read(p)?;
+            if let Some(twin) = records.iter().find(|r| r.same_data(&rec)) {
+                bail!(
+                    "{} holds the same samples as {}: a record given twice would be fitted twice (its uncertainties shrunk by a factor of 1.41 without reason)",
+                    p.display(),
+                    twin.path.display()
+                );
+            }
+            records.push(rec);
+        }
+        Ok(records)
     }
 
     fn read_record(&self, path: &Path) -> Result<OwnedRecord> {
