@@ -3,7 +3,7 @@
 //! measured vs predicted speed (`validate`, and the end of `demo`).
 
 use crate::csvio::OwnedRecord;
-use crate::plot::{draw, Panel, Series};
+use crate::plot::{draw_rows, Panel, Series};
 use crate::report::identify::ChannelQuality;
 use crate::report::{ByParam, Num, SCHEMA_VERSION};
 use anyhow::{anyhow, bail, Context, Result};
@@ -98,12 +98,21 @@ pub fn read_params(path: &Path) -> Result<ModelParams> {
     Ok(p)
 }
 
-/// `p` checked on `records`, with each record's predicted speed.
+/// What the parameters predict for one record: its speed, and its current where the check
+/// judges it.
+pub struct Prediction {
+    /// Predicted speed [rad/s].
+    pub omega: Vec<f32>,
+    /// Predicted current [A], where the record has current and the check judges it.
+    pub current: Option<Vec<f32>>,
+}
+
+/// `p` checked on `records`, with each record's prediction.
 pub fn check(
     p: &ModelParams,
     records: &[OwnedRecord],
     speed_only: bool,
-) -> Result<(ValidateReport, Vec<Vec<f32>>)> {
+) -> Result<(ValidateReport, Vec<Prediction>)> {
     let mut checks = Vec::new();
     let mut predicted = Vec::new();
     for r in records {
@@ -146,7 +155,10 @@ pub fn check(
                 omega_error: Num(errors[worst]),
             },
         });
-        predicted.push(w);
+        predicted.push(Prediction {
+            omega: w,
+            current: measured_current.map(|_| i),
+        });
     }
     let all_adequate = checks
         .iter()
@@ -203,45 +215,63 @@ impl ValidateReport {
     }
 }
 
-/// Measured vs predicted speed of each record, one panel each.
-pub fn plot(path: &Path, records: &[OwnedRecord], predicted: &[Vec<f32>]) -> Result<()> {
+/// Measured vs predicted speed of each record, one row each; beside it the current where
+/// the check judged it.
+pub fn plot(path: &Path, records: &[OwnedRecord], predicted: &[Prediction]) -> Result<()> {
     let times: Vec<Vec<f64>> = records
         .iter()
         .map(|r| (0..r.len()).map(|k| k as f64 * r.dt as f64).collect())
         .collect();
-    let panels: Vec<Panel> = records
+    let rows = rows_of(records, predicted, &times);
+    let rows: Vec<&[Panel]> = rows.iter().map(|r| r.as_slice()).collect();
+    draw_rows(path, &rows)
+}
+
+/// The plot's rows: per record its speed panel, and its current panel where judged.
+fn rows_of<'a>(
+    records: &'a [OwnedRecord],
+    predicted: &'a [Prediction],
+    times: &'a [Vec<f64>],
+) -> Vec<Vec<Panel<'a>>> {
+    let panel = |r: &OwnedRecord, what: &str, y_label, t, measured, predicted| Panel {
+        title: format!(
+            "{}: measured vs predicted {what}",
+            r.path
+                .file_name()
+                .map_or(r.name(), |n| n.to_string_lossy().into_owned())
+        ),
+        x_label: "t [s]",
+        y_label,
+        series: vec![
+            Series {
+                label: "measured",
+                x: t,
+                y: measured,
+                color: BLUE,
+            },
+            Series {
+                label: "predicted",
+                x: t,
+                y: predicted,
+                color: RED,
+            },
+        ],
+        log_y: false,
+        categories: None,
+        spans: vec![],
+    };
+    records
         .iter()
         .zip(predicted)
-        .zip(&times)
-        .map(|((r, w), t)| Panel {
-            title: format!(
-                "{}: measured vs predicted speed",
-                r.path
-                    .file_name()
-                    .map_or(r.name(), |n| n.to_string_lossy().into_owned())
-            ),
-            x_label: "t [s]",
-            y_label: "omega [rad/s]",
-            series: vec![
-                Series {
-                    label: "measured",
-                    x: t,
-                    y: &r.omega,
-                    color: BLUE,
-                },
-                Series {
-                    label: "predicted",
-                    x: t,
-                    y: w,
-                    color: RED,
-                },
-            ],
-            log_y: false,
-            categories: None,
-            spans: vec![],
+        .zip(times)
+        .map(|((r, p), t)| {
+            let mut row = vec![panel(r, "speed", "omega [rad/s]", t, &r.omega, &p.omega)];
+            if let (Some(measured), Some(current)) = (&r.current, &p.current) {
+                row.push(panel(r, "current", "i [A]", t, measured, current));
+            }
+            row
         })
-        .collect();
-    draw(path, &panels)
+        .collect()
 }
 
 #[cfg(test)]
@@ -252,6 +282,45 @@ mod tests {
         let p = dir.join("r.json");
         std::fs::write(&p, text).unwrap();
         p
+    }
+
+    #[test]
+    fn the_plot_shows_the_current_where_the_check_judges_it() {
+        let rec = |current: Option<Vec<f32>>| OwnedRecord {
+            path: "r.csv".into(),
+            t0: 0.0,
+            dt: 0.01,
+            v: vec![1.0; 3],
+            omega: vec![0.0, 1.0, 2.0],
+            current,
+            load: None,
+            coast_from: None,
+        };
+        let records = [rec(Some(vec![0.5; 3])), rec(Some(vec![0.5; 3])), rec(None)];
+        let predicted = [
+            Prediction {
+                omega: vec![0.0; 3],
+                current: Some(vec![0.4; 3]),
+            },
+            // Judged on speed only (--speed-only): no current panel.
+            Prediction {
+                omega: vec![0.0; 3],
+                current: None,
+            },
+            Prediction {
+                omega: vec![0.0; 3],
+                current: None,
+            },
+        ];
+        let times = vec![vec![0.0, 0.01, 0.02]; 3];
+        let rows = rows_of(&records, &predicted, &times);
+        let panels: Vec<usize> = rows.iter().map(|r| r.len()).collect();
+        assert_eq!(panels, [2, 1, 1]);
+        assert!(
+            rows[0][1].title.ends_with("current"),
+            "{}",
+            rows[0][1].title
+        );
     }
 
     #[test]
