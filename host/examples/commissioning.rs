@@ -10,11 +10,14 @@
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
 use motor_id_shared::device::unpinned::why_not_pinned;
-use motor_id_shared::device::virtual_board::commission;
+use motor_id_shared::device::virtual_board::{commission, BoardRecord};
+use motor_id_shared::fit::objective::Objective;
+use motor_id_shared::model::record::Record;
 use motor_id_shared::model::synth::table_one_motor;
 use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::Refusal;
+use motor_id_shared::ModelParams;
 use std::collections::BTreeMap;
 
 fn main() {
@@ -39,6 +42,15 @@ fn main() {
     let (mut pinned, mut within) = (0, 0);
     let mut outside: BTreeMap<&str, usize> = BTreeMap::new();
     let mut unpinned: BTreeMap<String, usize> = BTreeMap::new();
+    // |relative error| and |error| / sigma of the pinned parameters, by parameter.
+    let mut errors: BTreeMap<&str, (Vec<f32>, Vec<f32>)> = BTreeMap::new();
+    // The fit's speed RMSE of the motors whose pinned parameters all lie within 3 sigma, and
+    // of those with one beyond 10 sigma (is a far-off estimate a misfit, or a good fit?).
+    let (mut rmse_within, mut rmse_far) = (Vec::new(), Vec::new());
+    // How much worse the truth fits the board's records than the estimate, in units of the
+    // fit's residual variance (a chi-square difference: under 9 when the truth lies within
+    // the 3-sigma region the fit's curvature claims).
+    let (mut chi_within, mut chi_far) = (Vec::new(), Vec::new());
     let current_count = if adc_bits > 0 {
         limits.adc_counts(adc_bits).1
     } else {
@@ -80,6 +92,7 @@ fn main() {
         };
         evaluations.push(report.evaluations);
         let mut ok = true;
+        let mut worst_z = 0.0f32;
         for &id in ParamId::ALL[..=ParamId::Tc.index()].iter() {
             let e = report.get(id.index() as u8).expect("six estimates");
             let t = truth.get(id);
@@ -92,6 +105,10 @@ fn main() {
                 *unpinned.entry(format!("{} {kind}", id.name())).or_default() += 1;
             }
             if e.pinned() {
+                let (rel_errors, z) = errors.entry(id.name()).or_default();
+                rel_errors.push(rel);
+                z.push((e.value - t).abs() / e.std);
+                worst_z = worst_z.max((e.value - t).abs() / e.std);
                 pinned += 1;
                 let inside = (e.value - t).abs() <= 3.0 * e.std;
                 within += inside as usize;
@@ -99,6 +116,19 @@ fn main() {
                     *outside.entry(id.name()).or_insert(0usize) += 1;
                 }
             }
+        }
+        let estimate = ParamId::ALL[..=ParamId::Tc.index()]
+            .iter()
+            .fold(truth, |p, &id| {
+                p.with(id, report.get(id.index() as u8).map_or(0.0, |e| e.value))
+            });
+        let chi = chi_square_gap(&c.records, &truth, &estimate);
+        if worst_z <= 3.0 {
+            rmse_within.push(report.rmse_omega);
+            chi_within.push(chi);
+        } else if worst_z > 10.0 {
+            rmse_far.push(report.rmse_omega);
+            chi_far.push(chi);
         }
         all_ok += ok as usize;
         like_ok += (ok && looks_like_motor) as usize;
@@ -127,6 +157,47 @@ fn main() {
         pct(within, pinned)
     );
     println!("not pinned, by parameter and reason: {unpinned:?}");
+    for (name, (rel_errors, z)) in errors.iter_mut() {
+        rel_errors.sort_by(f32::total_cmp);
+        z.sort_by(f32::total_cmp);
+        let q = |v: &[f32], f: f64| v[((v.len() - 1) as f64 * f) as usize];
+        println!(
+            "{name}: |relative error| median {:.3} %, 90 % {:.3} %, 99 % {:.3} %; |error|/sigma median {:.2}, 90 % {:.2}, 99 % {:.2}",
+            100.0 * q(rel_errors, 0.5),
+            100.0 * q(rel_errors, 0.9),
+            100.0 * q(rel_errors, 0.99),
+            q(z, 0.5),
+            q(z, 0.9),
+            q(z, 0.99)
+        );
+    }
+    for (what, v) in [
+        ("all within 3 sigma", &mut chi_within),
+        ("one beyond 10 sigma", &mut chi_far),
+    ] {
+        v.sort_by(f64::total_cmp);
+        if !v.is_empty() {
+            println!(
+                "chi-square gap, truth against estimate, of the fits with {what}: median {:.1}, 90 % {:.1}, most {:.1}",
+                v[v.len() / 2],
+                v[v.len() * 9 / 10],
+                v[v.len() - 1]
+            );
+        }
+    }
+    for (what, v) in [
+        ("all within 3 sigma", &mut rmse_within),
+        ("one beyond 10 sigma", &mut rmse_far),
+    ] {
+        v.sort_by(f32::total_cmp);
+        if let (Some(first), Some(last)) = (v.first(), v.last()) {
+            println!(
+                "speed RMSE of the fits with {what} ({} motors): least {first:.3}, median {:.3}, most {last:.3} rad/s",
+                v.len(),
+                v[v.len() / 2]
+            );
+        }
+    }
     println!(
         "fit evaluations: median {}, 90 % {}, most {}",
         at(0.5),
@@ -138,4 +209,28 @@ fn main() {
         seconds[seconds.len() / 2],
         seconds.last().unwrap()
     );
+}
+
+/// `(SSE(truth) - SSE(estimate)) / (SSE(estimate) / n)` on the board's records: how many
+/// residual variances worse the truth fits them than the estimate (NaN when either cannot
+/// be evaluated).
+fn chi_square_gap(records: &[BoardRecord], truth: &ModelParams, estimate: &ModelParams) -> f64 {
+    let recs: Vec<Record> = records
+        .iter()
+        .map(|r| Record {
+            dt: r.dt,
+            v: &r.v,
+            omega: &r.omega,
+            current: Some(&r.current),
+            load: None,
+            coast_from: r.coast_from,
+        })
+        .collect();
+    let Ok(objective) = Objective::new(&recs) else {
+        return f64::NAN;
+    };
+    match (objective.cost(truth), objective.cost(estimate)) {
+        (Some(t), Some(e)) => (t.sse - e.sse) / (e.sse / e.residuals as f64),
+        _ => f64::NAN,
+    }
 }
