@@ -552,3 +552,31 @@ fn a_record_given_twice_is_refused() {
         assert!(err.contains("holds the same samples as"), "{err}");
     }
 }
+
+/// A file that is not a record (megabytes without a line break, `/dev/zero`) is refused at
+/// its first long line in one short line, without reading it whole: before, a 1 GB file of
+/// zeros took 15.7 GB of memory and an error message of gigabytes, and `/dev/zero` never
+/// ended.
+#[test]
+fn a_file_without_line_breaks_is_refused_at_once_in_a_short_line() {
+    let d = tempfile::tempdir().unwrap();
+    let zeros = d.path().join("zeros.csv");
+    std::fs::write(&zeros, vec![0u8; 4 << 20]).unwrap();
+    for path in [zeros.as_path(), std::path::Path::new("/dev/zero")] {
+        let err = run_err(&["identify", s(path), "-q"]);
+        assert!(
+            err.contains("line 1 is longer than"),
+            "{}",
+            &err[..err.len().min(300)]
+        );
+        assert!(err.len() < 300, "{} bytes of error", err.len());
+    }
+    // A header of binary junk is quoted, cut to 80 characters.
+    let junk = file(&d, "junk.csv", &"\u{1}".repeat(5000));
+    let err = run_err(&["identify", s(&junk), "-q"]);
+    assert!(
+        err.contains("missing column") && err.len() < 800,
+        "{} bytes",
+        err.len()
+    );
+}

@@ -9,6 +9,7 @@
 //! samples held over all the records of a command are bounded by `--max-samples`
 //! ([`ReadOptions`]); `--decimate K` keeps one sample in `K` rows ([`samples`]).
 
+mod bounded;
 mod rows;
 mod samples;
 mod scope;

@@ -2,6 +2,7 @@
 //! never held whole, and a row costs no allocation. Every value is checked here, with its
 //! line.
 
+use super::bounded::{quoted, BoundedLines};
 use anyhow::{anyhow, bail, Result};
 use csv::StringRecord;
 use std::fs::File;
@@ -65,7 +66,7 @@ impl Columns {
             bail!(
                 "missing column(s) {} (header is '{}'; need t, v, omega, optional i, tl, bridge){hint}",
                 missing.join(", "),
-                joined.escape_default()
+                quoted(&joined)
             );
         };
         Ok(Columns {
@@ -101,7 +102,7 @@ pub struct Row {
 
 /// The data rows of one record CSV, in file order.
 pub struct Rows {
-    reader: csv::Reader<File>,
+    reader: csv::Reader<BoundedLines<File>>,
     record: StringRecord,
     /// The columns found in the header.
     pub columns: Columns,
@@ -114,10 +115,10 @@ impl Rows {
     pub fn open(path: &Path) -> Result<Rows> {
         // Fields are trimmed where they are used: the reader's own trimming allocates a new
         // record for every row.
+        let file = File::open(path).map_err(|e| anyhow!("cannot open: {e}"))?;
         let mut reader = csv::ReaderBuilder::new()
             .buffer_capacity(BUFFER_BYTES)
-            .from_path(path)
-            .map_err(|e| anyhow!("cannot open: {}", csv_message(&e)))?;
+            .from_reader(BoundedLines::new(file));
         let header = reader
             .headers()
             .map_err(|e| anyhow!("{}", csv_message(&e)))?;
@@ -196,8 +197,9 @@ fn field(record: &StringRecord, c: usize, name: &str, line: u64) -> Result<f64> 
         .ok_or_else(|| anyhow!("line {line}: column {name} is missing"))?
         .trim();
     let x: f64 = text.parse().map_err(|_| {
-        // Escaped: a quoted field may hold a line break, and the error is one line.
-        let text = text.escape_debug();
+        // Escaped and cut: a quoted field may hold a line break, and the error is one
+        // short line.
+        let text = quoted(text);
         anyhow!("line {line}: {name} = '{text}' is not a number")
     })?;
     if !x.is_finite() || !(x as f32).is_finite() {

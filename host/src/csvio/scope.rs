@@ -1,6 +1,7 @@
 //! The oscilloscope import of the paper's workflow: a trace of tacho volts to a record. The
 //! trace is read line by line, never whole, as a record CSV is.
 
+use super::bounded::BoundedLines;
 use super::time::TimeSteps;
 use super::OwnedRecord;
 use anyhow::{anyhow, Context, Result};
@@ -108,10 +109,12 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
 }
 
 /// Call `f` with each line of `path` (numbered from 1, without its line ending), read one
-/// at a time into one reused buffer.
+/// at a time into one reused buffer; a line beyond [`super::bounded::MAX_LINE_BYTES`] is
+/// refused.
 fn for_each_line(path: &Path, mut f: impl FnMut(u64, &str) -> Result<()>) -> Result<()> {
     let cannot = || format!("cannot read {}", path.display());
-    let mut reader = BufReader::with_capacity(1 << 20, File::open(path).with_context(cannot)?);
+    let file = BoundedLines::new(File::open(path).with_context(cannot)?);
+    let mut reader = BufReader::with_capacity(1 << 20, file);
     let mut line = String::new();
     for number in 1.. {
         line.clear();
