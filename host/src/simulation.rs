@@ -88,9 +88,7 @@ pub struct SimulateArgs {
 /// Build the simulated record described by `a`.
 pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
     let mut p = a.motor.unwrap_or(ModelParams::PAPER_MOTOR);
-    for e in &a.effect {
-        e.apply(&mut p)?;
-    }
+    crate::spec::apply_effects(&a.effect, &mut p)?;
     let profile = Profile::from(a.profile);
     if !(a.rate.is_finite() && a.rate > 0.0) {
         bail!("--rate must be a positive number of Hz");

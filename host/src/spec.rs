@@ -105,6 +105,21 @@ impl EffectSpec {
     }
 }
 
+/// Add every effect of `specs` to `p`, each at most once: an effect given twice (the last
+/// would silently win) is refused.
+pub fn apply_effects(specs: &[EffectSpec], p: &mut ModelParams) -> Result<()> {
+    for (k, e) in specs.iter().enumerate() {
+        if specs[..k].iter().any(|earlier| earlier.effect == e.effect) {
+            bail!(
+                "--effect {} is given twice: give each effect once, with all its parameters",
+                e.effect.name()
+            );
+        }
+        e.apply(p)?;
+    }
+    Ok(())
+}
+
 /// `--effect NAME:key=val,...` (a clap value parser).
 pub fn parse_effect(text: &str) -> Result<EffectSpec, String> {
     let (name, rest) = text.split_once(':').unwrap_or((text, ""));

@@ -62,6 +62,14 @@ pub fn read_params(path: &Path) -> Result<ModelParams> {
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let json: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| anyhow!("{}: not a JSON report ({e})", path.display()))?;
+    if let Some(version) = json["schema_version"].as_u64() {
+        if version > u64::from(SCHEMA_VERSION) {
+            bail!(
+                "{}: schema_version {version} is newer than this motor-id reads ({SCHEMA_VERSION}): update motor-id",
+                path.display()
+            );
+        }
+    }
     let params = json["verdict"]["params"]
         .as_object()
         .or_else(|| json["params"].as_object())
@@ -347,6 +355,10 @@ mod tests {
                 "unknown parameter zz",
             ),
             (r#"{"other":1}"#.to_string(), "no `params`"),
+            (
+                format!(r#"{{"schema_version":99,"params":{{{motor}}}}}"#),
+                "is newer than",
+            ),
             ("not json".to_string(), "not a JSON report"),
         ] {
             let err = read_params(&report(d.path(), &text))

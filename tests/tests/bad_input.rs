@@ -580,3 +580,37 @@ fn a_file_without_line_breaks_is_refused_at_once_in_a_short_line() {
         err.len()
     );
 }
+
+/// `simulate` refuses an effect given twice (the last silently won) and a record its own
+/// reader would refuse (values beyond 1e9), writing nothing.
+#[test]
+fn simulate_refuses_a_repeated_effect_and_values_the_reader_refuses() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("r.csv");
+    let err = run_err(&[
+        "simulate",
+        "--effect",
+        "coulomb_friction:tc=0.1",
+        "--effect",
+        "coulomb_friction:tc=0.2",
+        "--out",
+        s(&out),
+    ]);
+    assert!(err.contains("given twice"), "{err}");
+    let err = run_err(&[
+        "simulate",
+        "--voltage",
+        "1e10",
+        "--duration",
+        "1",
+        "--out",
+        s(&out),
+    ]);
+    assert!(err.contains("which the record reader refuses"), "{err}");
+    assert!(!out.exists());
+    assert_eq!(
+        std::fs::read_dir(d.path()).unwrap().count(),
+        0,
+        "a file was left"
+    );
+}

@@ -96,9 +96,7 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         bail!("commission runs on the virtual board only (--sim); a drive board commissions itself at power-up, or with `motor-id board --port PORT commission`");
     }
     let mut motor = a.motor.unwrap_or(ModelParams::PAPER_MOTOR);
-    for e in &a.effect {
-        e.apply(&mut motor)?;
-    }
+    crate::spec::apply_effects(&a.effect, &mut motor)?;
     if let Some(dir) = &a.out_dir {
         check_out_dir(dir)?;
     }

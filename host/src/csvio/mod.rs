@@ -107,8 +107,35 @@ impl OwnedRecord {
         write_atomically(path, |tmp| self.write_to(tmp, path))
     }
 
+    /// Whether the reader would take every value back: finite and within
+    /// [`rows::MAX_MAGNITUDE`] (a writer must not write what its reader refuses).
+    fn check_readable(&self) -> Result<()> {
+        let columns = [
+            ("v", Some(&self.v)),
+            ("omega", Some(&self.omega)),
+            ("i", self.current.as_ref()),
+            ("tl", self.load.as_ref()),
+        ];
+        for (name, values) in columns {
+            let Some(values) = values else { continue };
+            if let Some(k) = values
+                .iter()
+                .position(|x| !x.is_finite() || f64::from(x.abs()) > rows::MAX_MAGNITUDE)
+            {
+                bail!(
+                    "sample {k}: {name} = {} is beyond {:e}, which the record reader refuses (a unit or scale error?)",
+                    values[k],
+                    rows::MAX_MAGNITUDE
+                );
+            }
+        }
+        Ok(())
+    }
+
     /// Write as record CSV to `tmp` (`path` names it in errors).
     fn write_to(&self, tmp: &Path, path: &Path) -> Result<()> {
+        self.check_readable()
+            .with_context(|| format!("cannot write {}", path.display()))?;
         let mut w = csv::Writer::from_path(tmp)
             .with_context(|| format!("cannot create {}", path.display()))?;
         let mut header = vec!["t", "v", "omega"];
