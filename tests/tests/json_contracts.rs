@@ -1,0 +1,134 @@
+//! Every key a command writes in its JSON report is documented in docs/CONTRACTS.md, in
+//! that report's section (one home per contract: the docs cannot drift from the code
+//! without this test failing). Keys that are parameter names (`ra`, `tc`, ...) are
+//! documented once, in the parameter table.
+
+use motor_id_tests::{json, run, run_ok, s, simulate};
+use serde_json::Value;
+use std::collections::BTreeSet;
+use std::path::Path;
+
+/// docs/CONTRACTS.md.
+fn contracts() -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/CONTRACTS.md");
+    std::fs::read_to_string(path).expect("docs/CONTRACTS.md")
+}
+
+/// The words (identifier characters) of the section whose heading starts with `heading`, up
+/// to the next `## `; the whole file when `heading` is empty.
+fn words_of(text: &str, heading: &str) -> BTreeSet<String> {
+    let section = match heading {
+        "" => text,
+        _ => {
+            let start = text
+                .find(heading)
+                .unwrap_or_else(|| panic!("no section {heading}"));
+            let rest = &text[start + heading.len()..];
+            &rest[..rest.find("\n## ").unwrap_or(rest.len())]
+        }
+    };
+    section
+        .split(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+        .filter(|w| !w.is_empty())
+        .map(str::to_string)
+        .collect()
+}
+
+/// Every key of `v`, at any depth, except those that are parameter names.
+fn keys(v: &Value, out: &mut BTreeSet<String>) {
+    match v {
+        Value::Object(map) => {
+            for (k, child) in map {
+                if motor_id_shared::ParamId::from_name(k).is_none() {
+                    out.insert(k.clone());
+                }
+                keys(child, out);
+            }
+        }
+        Value::Array(items) => items.iter().for_each(|i| keys(i, out)),
+        _ => {}
+    }
+}
+
+fn assert_documented(report: &Path, heading: &str) {
+    let mut written = BTreeSet::new();
+    keys(&json(report), &mut written);
+    assert!(!written.is_empty(), "{}: no keys", report.display());
+    let documented = words_of(&contracts(), heading);
+    let missing: Vec<&String> = written.difference(&documented).collect();
+    assert!(
+        missing.is_empty(),
+        "keys of {} not in CONTRACTS' section {heading:?}: {missing:?}",
+        report.display()
+    );
+}
+
+#[test]
+fn every_key_of_every_json_report_is_documented() {
+    let d = tempfile::tempdir().unwrap();
+    let rec = d.path().join("rec.csv");
+    simulate(
+        &rec,
+        &["--profile", "steps", "--rate", "200", "--duration", "10"],
+    );
+    let identify = d.path().join("identify.json");
+    run_ok(&["identify", s(&rec), "--json", s(&identify), "-q"]);
+    assert_documented(&identify, "## `identify` JSON");
+    let validate = d.path().join("validate.json");
+    let status = run(&[
+        "validate",
+        "--params",
+        s(&identify),
+        s(&rec),
+        "--json",
+        s(&validate),
+    ]);
+    assert!(status.status.code().is_some_and(|c| c == 0 || c == 3));
+    assert_documented(&validate, "## `validate` JSON");
+    let tune = d.path().join("tune.json");
+    run_ok(&["tune", "--params", s(&identify), "--json", s(&tune)]);
+    assert_documented(&tune, "## `tune` JSON");
+    let holdout = d.path().join("holdout.csv");
+    let friction = [
+        "--effect",
+        "coulomb_friction:tc=0.02",
+        "--rate",
+        "200",
+        "--duration",
+        "10",
+    ];
+    simulate(
+        &holdout,
+        &[&["--profile", "reversal", "--seed", "2"], &friction[..]].concat(),
+    );
+    let train = d.path().join("train.csv");
+    simulate(&train, &[&["--profile", "steps"], &friction[..]].concat());
+    let diagnose = d.path().join("diagnose.json");
+    let args = ["diagnose", "--train", s(&train), "--holdout", s(&holdout)];
+    run_ok(&[&args[..], &["--json", s(&diagnose), "-q"]].concat());
+    assert_documented(&diagnose, "## `diagnose` JSON");
+    let commission = d.path().join("commission.json");
+    run_ok(&[
+        "commission",
+        "--sim",
+        "--rate",
+        "5000",
+        "--json",
+        s(&commission),
+        "-q",
+    ]);
+    // Its keys are spread over the command table (its own), the `board` JSON (`motor`) and
+    // the `Plan` message (`plan`).
+    assert_documented(&commission, "");
+}
+
+/// The check itself: a key absent from the docs is found.
+#[test]
+fn an_undocumented_key_is_caught() {
+    let mut written = BTreeSet::new();
+    let v: Value = serde_json::json!({"rmse_omega": 1, "zz_not_a_key": {"ra": 1}});
+    keys(&v, &mut written);
+    let documented = words_of(&contracts(), "## `identify` JSON");
+    let missing: Vec<&String> = written.difference(&documented).collect();
+    assert_eq!(missing, [&"zz_not_a_key".to_string()]);
+}
