@@ -153,8 +153,9 @@ fn a_long_electrical_time_constant_is_waited_for_on_the_reference_plant() {
             id.name()
         );
     }
-    // Viscous loss above back-EMF (Kv^2 < Ra B / 4) and La/Ra of 2.7 s: not a motor the
-    // probe measures well, but never a trip: refused, with the current under its limit.
+    // Viscous loss above back-EMF (Kv^2 < Ra B / 4) and La/Ra of 2.7 s: the probe's V - Ra i
+    // is lost in its Ra's error. Never a trip: refused for what it is (no back-EMF to
+    // measure Kv by), with the current under its limit.
     let m = Motor {
         ra: 0.6540265,
         la: 1.7387898,
@@ -165,9 +166,9 @@ fn a_long_electrical_time_constant_is_waited_for_on_the_reference_plant() {
     let tc = 0.05 * m.kv * limits.current as f64;
     let mut d = drive_at(20_000.0, m, tc, 4);
     let c = commission(&mut d, limits, 1, None, &mut |_| {});
-    assert_ne!(
+    assert_eq!(
         c.result.as_ref().err(),
-        Some(&JobEnd::Refused(Refusal::Trip)),
+        Some(&JobEnd::Refused(Refusal::NoBackEmf)),
         "{:?}",
         c.plan
     );

@@ -18,7 +18,7 @@
 //! is the largest these bounds keep under ω_max, divided by the step's overshoot. A motor
 //! whose break-away voltage lies above it is refused.
 
-use crate::device::probe::{Probed, QUIET_BUDGET, SPEED_SHARE};
+use crate::device::probe::{Probed, KV_FLOOR, QUIET_BUDGET, SPEED_SHARE};
 use crate::wire::limits::Limits;
 use crate::wire::protocol::Refusal;
 
@@ -81,8 +81,9 @@ fn whole(x: f32) -> u32 {
 
 /// The experiment for a motor the probe measured, with `capacity` record samples and a
 /// drive sampled every `dt`, after the probe's time. Refused when the speed limit leaves no
-/// voltage above the break-away ([`Refusal::TooFast`]) or the current limit none
-/// ([`Refusal::NoMotion`]).
+/// voltage above the break-away ([`Refusal::TooFast`], or [`Refusal::NoBackEmf`] when the
+/// probe could not measure Kv, so that the speed bound is the resistive drop alone) or the
+/// current limit none ([`Refusal::NoMotion`]).
 pub fn design(
     limits: &Limits,
     dt: f32,
@@ -101,10 +102,12 @@ pub fn design(
     // The ramp reads the break-away late on a heavy shaft (it must gather speed to be seen):
     // only a voltage under half of it is surely below the true break-away.
     if volts <= 0.5 * floor {
-        return Err(if by_speed <= by_current {
-            Refusal::TooFast
-        } else {
-            Refusal::NoMotion
+        // With Kv not measured, the speed bound is the resistive drop alone: a refusal for
+        // speed would name the wrong cause.
+        return Err(match (by_speed <= by_current, mechanical.kv <= KV_FLOOR) {
+            (true, true) => Refusal::NoBackEmf,
+            (true, false) => Refusal::TooFast,
+            (false, _) => Refusal::NoMotion,
         });
     }
     let fast_samples = FAST_SAMPLES.min(capacity / 4);
@@ -201,5 +204,8 @@ mod tests {
         // under the speed limit.
         let p = probe(10.0, 0.01, 1e-3, 1.0);
         assert_eq!(design(&limits, DT, 2000, &p), Err(Refusal::TooFast));
+        // No back-EMF measured (V - Ra i not above zero): refused as such, not as too fast.
+        let p = probe(10.0, 0.01, KV_FLOOR, 1.0);
+        assert_eq!(design(&limits, DT, 2000, &p), Err(Refusal::NoBackEmf));
     }
 }

@@ -55,6 +55,9 @@ pub const QUIET_BUDGET: f32 = 0.05;
 const MECHANICAL_BUDGET: f32 = 0.3;
 /// Share of the budget kept for the experiment's records when the mechanical step starts.
 const RECORDS_BUDGET: f32 = 0.5;
+/// The mechanical step's Kv when its back-EMF `V - Ra i` is not above zero: not measured
+/// ([`crate::device::design`] refuses the motor with [`Refusal::NoBackEmf`]) [V s/rad].
+pub const KV_FLOOR: f32 = 1e-6;
 /// A first-order response's rise at its time constant, 1 - 1/e.
 const RISE_AT_TAU: f32 = 1.0 - 1.0 / core::f32::consts::E;
 
@@ -395,7 +398,7 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
             return Err(JobEnd::Refused(Refusal::NoMotion));
         }
         let (w_end, i_end) = (speed.last(), current.last());
-        let kv = ((v - ra * i_end) / w_end).max(1e-6);
+        let kv = ((v - ra * i_end) / w_end).max(KV_FLOOR);
         let t = k as f32 * bench.dt();
         let w0 = start.unwrap_or(0.0);
         let tau_m = match settled {

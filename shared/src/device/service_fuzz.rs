@@ -247,6 +247,7 @@ impl Model {
                         | Refusal::SensorFault
                         | Refusal::NoMotion
                         | Refusal::TooFast
+                        | Refusal::NoBackEmf
                         | Refusal::InvalidRecord,
                     ) => {}
                     _ => return fail(),

@@ -153,6 +153,7 @@ fn refusal() -> impl Strategy<Value = Refusal> {
             Refusal::TooFast,
             Refusal::BadLimits,
             Refusal::NoRecord,
+            Refusal::NoBackEmf,
         ]),
     ]
 }

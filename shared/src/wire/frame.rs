@@ -251,7 +251,7 @@ mod tests {
     }
 
     #[test]
-    fn the_messages_of_protocol_9_have_the_bytes_docs_contracts_gives() {
+    fn the_messages_of_protocols_9_and_10_have_the_bytes_docs_contracts_gives() {
         // Postcard: the variant's index as a varint, then each field (f32 little-endian,
         // integers as varints, an option as a 0/1 tag before its value).
         let mut out = [0u8; 64];
@@ -286,6 +286,20 @@ mod tests {
         let mut want = vec![9];
         want.extend(limits);
         assert_eq!(reply, want);
+        // Protocol 10: refusal 14, `NoBackEmf`; the hello carries version 10.
+        let refused = postcard::to_slice(&BoardMessage::Refused(Refusal::NoBackEmf), &mut out)
+            .unwrap()
+            .to_vec();
+        assert_eq!(refused, [1, 14]);
+        assert_eq!(
+            bytes(
+                &HostMessage::Hello {
+                    version: PROTOCOL_VERSION
+                },
+                &mut out
+            ),
+            [0, 10]
+        );
     }
 
     fn roundtrip<T: Serialize + DeserializeOwned>(msg: &T) -> T {

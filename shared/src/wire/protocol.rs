@@ -7,7 +7,7 @@ use crate::wire::limits::Limits;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 9;
+pub const PROTOCOL_VERSION: u16 = 10;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -268,6 +268,11 @@ pub enum Refusal {
     BadLimits,
     /// No record with that index is held, or the offset lies past its end (protocol 9).
     NoRecord,
+    /// Commissioning probe: the back-EMF at the mechanical step's speed is lost in the
+    /// resistive drop (V - Ra i is not above zero within the probe's resolution), so Kv
+    /// and the speed the voltages would give cannot be measured: resistive or viscous loss
+    /// dominates (protocol 10).
+    NoBackEmf,
 }
 
 impl core::fmt::Display for Refusal {
@@ -302,6 +307,9 @@ impl core::fmt::Display for Refusal {
             ),
             Refusal::NoRecord => f.write_str(
                 "the board holds no such record (commission, or stream one in, first)",
+            ),
+            Refusal::NoBackEmf => f.write_str(
+                "probe: the back-EMF is lost in the armature's resistive drop, so Kv cannot be measured (resistive or viscous loss dominates the motor)",
             ),
         }
     }
