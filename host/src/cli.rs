@@ -4,7 +4,7 @@ use crate::commands::{
     board, commission, compare, demo, diagnose, identify, import_scope, simulate, tune, validate,
 };
 use anyhow::{bail, Result};
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::Path;
 
 /// Identify DC motor parameters (Ra, La, J, B, Kv and effects) from speed (and current) records.
@@ -15,44 +15,43 @@ pub struct Cli {
     command: Command,
 }
 
-/// Every command takes negative numbers as option values (`--x -35`, not only `--x=-35`).
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Simulate an experiment on a motor and write a record CSV.
-    #[command(allow_negative_numbers = true)]
     Simulate(simulate::SimulateArgs),
     /// Identify motor parameters from one or more record CSVs (fitted jointly).
-    #[command(allow_negative_numbers = true)]
     Identify(identify::IdentifyArgs),
     /// Convert an oscilloscope CSV of tacho volts into a record CSV (the paper's workflow).
-    #[command(allow_negative_numbers = true)]
     ImportScope(import_scope::ScopeArgs),
     /// Locate the sim-to-real gap: where the model misfits, which unmodelled effect causes it,
     /// how far the misfit shrinks with it, judged on held-out records.
-    #[command(allow_negative_numbers = true)]
     Diagnose(diagnose::DiagnoseArgs),
     /// Check identified parameters on new records (paper's Figs. 11-14): the prediction's
     /// misfit against each record's noise, and where it misfits most.
-    #[command(allow_negative_numbers = true)]
     Validate(validate::ValidateArgs),
     /// Current-loop and speed-loop PI gains from identified parameters, with their step
     /// responses on the identified model.
-    #[command(allow_negative_numbers = true)]
     Tune(tune::TuneArgs),
     /// Compare optimisers on the same records, objective and budget (paper's Table 3).
-    #[command(allow_negative_numbers = true)]
     Compare(compare::CompareArgs),
     /// Talk to a drive board (or its QEMU build) over a serial port.
-    #[command(allow_negative_numbers = true)]
     Board(board::BoardArgs),
     /// Commission a simulated motor on the virtual board: the board's own probe, experiment
     /// and fit, run on the host (try a motor and the limits before flashing a board).
-    #[command(allow_negative_numbers = true)]
     Commission(commission::CommissionArgs),
     /// Run the whole job on a built-in default: the paper's motor, simulated, identified from
     /// speed only (the paper's workflow) and from speed and current.
-    #[command(allow_negative_numbers = true)]
     Demo(demo::DemoArgs),
+}
+
+/// Parse the command line. Every command and subcommand takes negative numbers as option
+/// values (`--x -35`, not only `--x=-35`).
+pub fn try_parse() -> Result<Cli, clap::Error> {
+    fn negatives(c: clap::Command) -> clap::Command {
+        c.allow_negative_numbers(true).mut_subcommands(negatives)
+    }
+    let matches = negatives(Cli::command()).try_get_matches()?;
+    Cli::from_arg_matches(&matches).map_err(|e| e.format(&mut Cli::command()))
 }
 
 /// A check that ran and failed (`validate`: the parameters do not predict the records to

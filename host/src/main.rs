@@ -19,12 +19,11 @@ mod spec;
 mod tuning;
 mod validation;
 
-use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
     interrupt::install();
-    let args = match cli::Cli::try_parse() {
+    let args = match cli::try_parse() {
         Ok(a) => a,
         Err(e) => {
             // clap prints help/version to stdout (exit 0) and usage errors to stderr (exit 2).

@@ -79,7 +79,6 @@ pub enum BoardAction {
     Clear,
     /// Show the limits commissioning works within, or set those given (stored on the board
     /// beside the parameters; the others keep the board's values).
-    #[command(allow_negative_numbers = true)]
     Config {
         #[command(flatten)]
         limits: LimitArgs,
