@@ -51,11 +51,6 @@ fn main() {
     // fit's residual variance (a chi-square difference: under 9 when the truth lies within
     // the 3-sigma region the fit's curvature claims).
     let (mut chi_within, mut chi_far) = (Vec::new(), Vec::new());
-    let current_count = if adc_bits > 0 {
-        limits.adc_counts(adc_bits).1
-    } else {
-        0.0
-    };
     let mut seconds = Vec::new();
     let mut evaluations = Vec::new();
     for m in 0..motors {
@@ -70,6 +65,7 @@ fn main() {
         if adc_bits > 0 {
             (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(adc_bits);
         }
+        let current_count = plant.resolution.current;
         let c = commission(plant, limits, 1, None, &mut |_| {});
         seconds.push(c.seconds);
         like += looks_like_motor as usize;
@@ -215,17 +211,7 @@ fn main() {
 /// residual variances worse the truth fits them than the estimate (NaN when either cannot
 /// be evaluated).
 fn chi_square_gap(records: &[BoardRecord], truth: &ModelParams, estimate: &ModelParams) -> f64 {
-    let recs: Vec<Record> = records
-        .iter()
-        .map(|r| Record {
-            dt: r.dt,
-            v: &r.v,
-            omega: &r.omega,
-            current: Some(&r.current),
-            load: None,
-            coast_from: r.coast_from,
-        })
-        .collect();
+    let recs: Vec<Record> = records.iter().map(BoardRecord::as_record).collect();
     let Ok(objective) = Objective::new(&recs) else {
         return f64::NAN;
     };

@@ -77,20 +77,23 @@ fn follow_links(path: &Path) -> Result<PathBuf> {
 /// same file as an input or as another output (the report would replace the record it was
 /// made from), in a directory that exists and takes new files. One line naming the path.
 pub fn check_paths(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
-    let identity = |p: &Path| fs::metadata(p).ok().map(|m| (m.dev(), m.ino()));
-    let inputs: Vec<_> = inputs.iter().map(|p| (*p, identity(p))).collect();
+    let identity = |m: &fs::Metadata| (m.dev(), m.ino());
+    let inputs: Vec<_> = inputs
+        .iter()
+        .map(|p| (*p, fs::metadata(p).ok().map(|m| identity(&m))))
+        .collect();
     let mut targets: Vec<PathBuf> = Vec::new();
     for &out in outputs {
         let target = follow_links(out)?;
-        if let Some(id) = identity(&target) {
-            if let Some((input, _)) = inputs.iter().find(|(_, i)| *i == Some(id)) {
+        if let Ok(meta) = fs::metadata(&target) {
+            let id = Some(identity(&meta));
+            if let Some((input, _)) = inputs.iter().find(|(_, i)| *i == id) {
                 bail!(
                     "refusing to write {}: it is the input {}",
                     out.display(),
                     input.display()
                 );
             }
-            let meta = fs::metadata(&target).context("metadata")?;
             if meta.is_dir() {
                 bail!("cannot write {}: it is a directory", out.display());
             }

@@ -50,12 +50,22 @@ fn keys(v: &Value, out: &mut BTreeSet<String>) {
     }
 }
 
-fn assert_documented(report: &Path, heading: &str) {
+/// The keys of `v` that the CONTRACTS section starting with `heading` does not name.
+fn undocumented(v: &Value, heading: &str) -> Vec<String> {
     let mut written = BTreeSet::new();
-    keys(&json(report), &mut written);
-    assert!(!written.is_empty(), "{}: no keys", report.display());
+    keys(v, &mut written);
     let documented = words_of(&contracts(), heading);
-    let missing: Vec<&String> = written.difference(&documented).collect();
+    written.difference(&documented).cloned().collect()
+}
+
+fn assert_documented(report: &Path, heading: &str) {
+    let v = json(report);
+    assert!(
+        v.as_object().is_some_and(|m| !m.is_empty()),
+        "{}: no keys",
+        report.display()
+    );
+    let missing = undocumented(&v, heading);
     assert!(
         missing.is_empty(),
         "keys of {} not in CONTRACTS' section {heading:?}: {missing:?}",
@@ -122,13 +132,9 @@ fn every_key_of_every_json_report_is_documented() {
     assert_documented(&commission, "");
 }
 
-/// The check itself: a key absent from the docs is found.
+/// The check itself: a key absent from the docs is found, a parameter name is not asked for.
 #[test]
 fn an_undocumented_key_is_caught() {
-    let mut written = BTreeSet::new();
     let v: Value = serde_json::json!({"rmse_omega": 1, "zz_not_a_key": {"ra": 1}});
-    keys(&v, &mut written);
-    let documented = words_of(&contracts(), "## `identify` JSON");
-    let missing: Vec<&String> = written.difference(&documented).collect();
-    assert_eq!(missing, [&"zz_not_a_key".to_string()]);
+    assert_eq!(undocumented(&v, "## `identify` JSON"), ["zz_not_a_key"]);
 }

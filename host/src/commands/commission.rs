@@ -111,6 +111,8 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
     if a.adc_bits > 0 {
         (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(a.adc_bits);
     }
+    // What the unpinned parameters' reasons compare the friction currents with.
+    let current_count = plant.resolution.current;
     // Ctrl-C: the virtual board hears it as the host's abort.
     let interrupted = crate::interrupt::take_over();
     let bar = FitProgress::new(a.quiet);
@@ -124,10 +126,6 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         }
     });
     bar.finish();
-    let current_count = match a.adc_bits {
-        0 => 0.0,
-        bits => limits.adc_counts(bits).1,
-    };
     let unpinned = match (&outcome.result, &outcome.plan) {
         (Ok(r), Some(plan)) => r
             .estimates

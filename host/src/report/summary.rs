@@ -41,21 +41,19 @@ pub fn summary(
     for p in ParamId::ALL {
         let free = ident.params.iter().find(|c| c.id == p);
         let v = id.params.get(p);
-        let status = match free {
-            Some(_) if at_bound(v, spec.bounds[p.index()]).is_some() => format!(
-                "at its bound {} (not measured: widen --bounds)",
-                sig(at_bound(v, spec.bounds[p.index()]).unwrap_or(v))
-            ),
-            Some(c) if c.pinned => match c.std {
+        let bound = free.and(at_bound(v, spec.bounds[p.index()]));
+        let status = match (free, bound) {
+            (Some(_), Some(b)) => format!("at its bound {} (not measured: widen --bounds)", sig(b)),
+            (Some(c), None) if c.pinned => match c.std {
                 Some(sd) if v == 0.0 => format!("+- {} {} (at zero)", sig(sd), p.unit()),
                 Some(sd) if sd > v.abs() => "NOT pinned (uncertainty above 100 %)".into(),
                 Some(sd) => format!("+- {:.3} %", 100.0 * sd / v.abs()),
                 None => "pinned".into(),
             },
-            Some(_) => "NOT pinned by this data".into(),
-            None if spec.free[p.index()] => String::new(),
-            None if p.is_motor() || v != 0.0 && p != ParamId::RippleCycles => "fixed".into(),
-            None => continue,
+            (Some(_), None) => "NOT pinned by this data".into(),
+            (None, _) if spec.free[p.index()] => String::new(),
+            (None, _) if p.is_motor() || v != 0.0 && p != ParamId::RippleCycles => "fixed".into(),
+            (None, _) => continue,
         };
         s += &format!(
             "  {:<13} = {:<12} {:<14} {}\n",

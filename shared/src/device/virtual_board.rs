@@ -8,6 +8,7 @@ use crate::device::hardware::{Drive, Hardware, Link, NoWatchdog, ParamStore, Wat
 use crate::device::job::JobEnd;
 use crate::device::record_store::RecordStore;
 use crate::device::service::Service;
+use crate::model::record::Record;
 use crate::wire::limits::Limits;
 use crate::wire::protocol::{BoardMessage, HostMessage, MotorReport, NotStored, Plan};
 use crate::wire::stored::Stored;
@@ -31,6 +32,20 @@ pub struct BoardRecord {
     pub current: Vec<f32>,
     /// First sample of the coast-down (bridge open to the end).
     pub coast_from: Option<usize>,
+}
+
+impl BoardRecord {
+    /// The record as the fit reads it: speed and current, and its coast-down.
+    pub fn as_record(&self) -> Record<'_> {
+        Record {
+            dt: self.dt,
+            v: &self.v,
+            omega: &self.omega,
+            current: Some(&self.current),
+            load: None,
+            coast_from: self.coast_from,
+        }
+    }
 }
 
 /// How a commissioning on the virtual board went.

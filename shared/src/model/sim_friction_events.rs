@@ -87,9 +87,8 @@ impl Simulator {
         }
         self.current.set(i);
         self.omega.set(0.0);
-        let before = (self.current.hi, self.omega.hi);
         self.linear_update(i, 0.0, volts, load + held);
-        let (di, dw) = (self.current.hi - before.0, self.omega.hi - before.1);
+        let (di, dw) = (self.current.hi - i, self.omega.hi);
         self.current.set(i + left * di);
         self.omega.set(left * dw);
         self.shaft_stuck = sign(self.omega.hi) != direction;
