@@ -13,6 +13,7 @@
 use super::rows::MAX_MAGNITUDE;
 use super::*;
 use motor_id_fuzz::{check, corpus, mutated};
+use motor_id_shared::model::record::MIN_SAMPLES;
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseResult;

@@ -10,21 +10,18 @@
 //! ([`ReadOptions`]); `--decimate K` keeps one sample in `K` rows ([`samples`]).
 
 mod bounded;
+mod reader;
 mod rows;
 mod samples;
 mod scope;
 mod time;
 
 use crate::output::write_atomically;
-use anyhow::{anyhow, bail, Context, Result};
-use clap::Args;
-use motor_id_shared::model::record::MIN_SAMPLES;
+use anyhow::{bail, Context, Result};
 use motor_id_shared::Record;
-use rows::Rows;
-use samples::Samples;
+pub use reader::{ReadOptions, RecordReader};
 pub use scope::{import_scope, ScopeImport};
 use std::path::{Path, PathBuf};
-use time::TimeSteps;
 
 /// A record read from or written to CSV.
 #[derive(Clone, Debug, PartialEq)]
@@ -172,229 +169,6 @@ impl OwnedRecord {
     }
 }
 
-/// Samples held at most over the records of one command, by default: an hour at 10 kHz with
-/// room to spare, at most 640 MB (16 bytes a sample).
-pub const DEFAULT_MAX_SAMPLES: u64 = 40_000_000;
-
-/// How record CSVs are read: the memory bound and the decimation.
-#[derive(Args, Clone, Debug)]
-pub struct ReadOptions {
-    /// Hold at most N samples in memory over all the records read, after --decimate: 4
-    /// bytes for each of v, omega, i and tl, so at most 16 bytes a sample (640 MB for the
-    /// default). A longer record is refused, with the --decimate that would fit it.
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_SAMPLES,
-          value_parser = clap::value_parser!(u64).range(MIN_SAMPLES as u64..))]
-    pub max_samples: u64,
-    /// Keep one sample in K rows: the mean of K readings (omega, i), the inputs (v, tl)
-    /// averaged over the new step of K rows (docs/CONTRACTS.md). Only for dynamics much
-    /// slower than K rows: the electrical time constant La/Ra too.
-    #[arg(long, value_name = "K", default_value_t = 1,
-          value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
-    pub decimate: u64,
-}
-
-impl Default for ReadOptions {
-    fn default() -> Self {
-        ReadOptions {
-            max_samples: DEFAULT_MAX_SAMPLES,
-            decimate: 1,
-        }
-    }
-}
-
-/// Reads record CSVs within one bound on the samples held ([`ReadOptions`]), counted over
-/// every record it reads.
-pub struct RecordReader {
-    options: ReadOptions,
-    /// Samples of the records read so far.
-    held: u64,
-}
-
-impl RecordReader {
-    /// A reader that has read nothing yet.
-    pub fn new(options: &ReadOptions) -> RecordReader {
-        RecordReader {
-            options: options.clone(),
-            held: 0,
-        }
-    }
-
-    /// Read and validate a record CSV (errors name the file).
-    pub fn read(&mut self, path: &Path) -> Result<OwnedRecord> {
-        let rec = self
-            .read_record(path)
-            .with_context(|| path.display().to_string())?;
-        self.held += rec.len() as u64;
-        Ok(rec)
-    }
-
-    /// Read and validate several record CSVs, stopping at the first that fails. A record
-    /// whose samples equal an earlier one's (the same file given twice, or a copy) is
-    /// refused: fitted twice, it would shrink every uncertainty by a factor of √2 without
-    /// a word.
-    pub fn read_all(&mut self, paths: &[PathBuf]) -> Result<Vec<OwnedRecord>> {
-        let mut records: Vec<OwnedRecord> = Vec::with_capacity(paths.len());
-        for p in paths {
-            let rec = self.read(p)?;
-            if let Some(twin) = records.iter().find(|r| r.same_data(&rec)) {
-                bail!(
-                    "{} holds the same samples as {}: a record given twice would be fitted twice (its uncertainties shrunk by a factor of 1.41 without reason)",
-                    p.display(),
-                    twin.path.display()
-                );
-            }
-            records.push(rec);
-        }
-        Ok(records)
-    }
-
-    fn read_record(&self, path: &Path) -> Result<OwnedRecord> {
-        let mut rows = Rows::open(path)?;
-        let columns = rows.columns;
-        let k = self.options.decimate as usize;
-        let mut samples = Samples::new(k, columns.current.is_some(), columns.load.is_some());
-        let left = self.options.max_samples.saturating_sub(self.held);
-        let mut times = TimeSteps::default();
-        let mut bridge = BridgeCheck::default();
-        let mut turned = false;
-        let mut n = 0;
-        while let Some(row) = rows.next_row()? {
-            times.push(row.t);
-            bridge.push(n, row.driven, row.line);
-            turned |= row.omega != 0.0;
-            samples.push(&row);
-            n += 1;
-            if samples.len() as u64 > left {
-                return Err(self.too_long(&mut rows, n as u64, &samples));
-            }
-        }
-        if n == 0 {
-            bail!("no data rows");
-        }
-        if n < MIN_SAMPLES {
-            bail!("only {n} data rows (need at least {MIN_SAMPLES})");
-        }
-        if !turned {
-            bail!("omega is zero throughout: the motor never turned, there is nothing to fit");
-        }
-        let dt = times.step(|scan| {
-            let mut again = Rows::open(path)?;
-            while let Some(row) = again.next_row()? {
-                scan.push(row.t, row.line)?;
-            }
-            Ok(())
-        })?;
-        let coast_row = bridge.coast_from()?;
-        samples.finish();
-        if samples.len() < MIN_SAMPLES {
-            bail!(
-                "only {} samples of {n} rows with --decimate {k} (need at least {MIN_SAMPLES})",
-                samples.len()
-            );
-        }
-        let coast_from = coast_row.map(|r| samples.coast_from(r)).transpose()?;
-        // Decimated, a sample stands for the middle of its block of rows.
-        let (t0, dt) = match k {
-            1 => (times.first(), dt),
-            _ => {
-                let step = times.mean_step();
-                (
-                    times.first() + (k - 1) as f64 / 2.0 * step,
-                    (step * k as f64) as f32,
-                )
-            }
-        };
-        let rec = OwnedRecord {
-            path: path.to_path_buf(),
-            t0,
-            dt,
-            v: samples.v,
-            omega: samples.omega,
-            current: samples.current,
-            load: samples.load,
-            coast_from,
-        };
-        rec.as_record(true).validate().map_err(|e| anyhow!("{e}"))?;
-        Ok(rec)
-    }
-
-    /// The error of a record with more samples than the bound leaves it, after `read` rows
-    /// of it: its rows counted to the end, and the `--decimate` that would fit it.
-    fn too_long(&self, rows: &mut Rows, read: u64, samples: &Samples) -> anyhow::Error {
-        let (rest, complete) = rows.count_rest();
-        let total = read + rest;
-        let (max, k) = (self.options.max_samples, self.options.decimate);
-        let left = max.saturating_sub(self.held);
-        let at_least = if complete { "" } else { "at least " };
-        let kept = match k {
-            1 => String::new(),
-            _ => format!(
-                " ({}{} samples with --decimate {k})",
-                at_least,
-                samples.kept_of(total)
-            ),
-        };
-        let bound = match self.held {
-            0 => format!("--max-samples {max}"),
-            _ => format!("the {left} samples left of --max-samples {max} by the records before it"),
-        };
-        let bytes = 4 * samples.columns() as u64;
-        let advice = match total / (left + 1) + 1 {
-            fit if left >= MIN_SAMPLES as u64 => {
-                format!(
-                    "keep one sample in {fit} rows with --decimate {fit}, or raise --max-samples"
-                )
-            }
-            _ => "raise --max-samples".into(),
-        };
-        anyhow!(
-            "{at_least}{total} rows{kept}, more than {bound} ({bytes} bytes a sample, {} MB); {advice}",
-            (max * bytes) as f64 / 1e6
-        )
-    }
-}
-
-/// The rule of a `bridge` column, checked row by row: its zeros run from some row after the
-/// first to the end (the model opens the bridge once). A breach is said after the checks
-/// of the whole record (row count, speed, time step), as when the column was checked whole.
-#[derive(Default)]
-struct BridgeCheck {
-    /// The first open row, and its line.
-    open_from: Option<(usize, u64)>,
-    /// The first breach.
-    error: Option<String>,
-}
-
-impl BridgeCheck {
-    /// Take row `row` (at file line `line`), driven or open.
-    fn push(&mut self, row: usize, driven: bool, line: u64) {
-        if self.error.is_some() {
-            return;
-        }
-        match (self.open_from, driven) {
-            (None, false) if row == 0 => {
-                self.error = Some(format!(
-                    "line {line}: bridge is 0 from the first row: a coast-down follows a driven part"
-                ));
-            }
-            (None, false) => self.open_from = Some((row, line)),
-            (Some((_, from)), true) => {
-                self.error = Some(format!(
-                    "line {line}: bridge is 1 again after the open circuit from line {from}: the model opens the bridge once, to the end of the record"
-                ));
-            }
-            _ => {}
-        }
-    }
-
-    /// The first open row, if any, or the breach.
-    fn coast_from(&self) -> Result<Option<usize>> {
-        match &self.error {
-            Some(e) => bail!("{e}"),
-            None => Ok(self.open_from.map(|(row, _)| row)),
-        }
-    }
-}
 #[cfg(test)]
 mod fuzz;
 

@@ -18,10 +18,7 @@ use crate::capacity::SIM_EFFECT_PARAMS;
 use crate::error::Error;
 use crate::model::discretise::Discrete;
 use crate::model::effects::friction::FrictionLaw;
-use crate::model::effects::{
-    armature_reaction, bridge_deadtime, brush_drop, current_offset, quadratic_load, sensor_delay,
-    tacho_ripple, SWITCHES,
-};
+use crate::model::effects::{current_offset, sensor_delay, tacho_ripple, SWITCHES};
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
 
@@ -103,47 +100,6 @@ pub(crate) fn sign(x: f32) -> f32 {
         -1.0
     } else {
         0.0
-    }
-}
-
-/// A dead zone on a state that may stick at zero (shaft speed under friction, current under
-/// brush drop), with `opposition(direction)` the opposing term of the effect's entry for a
-/// motion in `direction` (+1, -1; 0 gives 0). Returns the opposing term to apply over the
-/// next step: `None` while the state stays stuck (the drive within the opposition), else
-/// the opposition in the direction of motion (or, from rest, of the drive).
-#[inline(always)]
-fn dead_zone_opposition(
-    value: f32,
-    drive: f32,
-    opposition: impl Fn(f32) -> f32,
-    stuck: &mut bool,
-) -> Option<f32> {
-    if *stuck {
-        let held = opposition(sign(drive));
-        if drive.abs() <= held.abs() {
-            return None;
-        }
-        *stuck = false;
-        return Some(held);
-    }
-    let direction = if value != 0.0 {
-        sign(value)
-    } else {
-        sign(drive)
-    };
-    Some(opposition(direction))
-}
-
-/// After a step with an opposing dead-zone term: a state that crossed zero sticks there.
-fn stick_on_crossing(before: f32, opposition: f32, state: &mut Compensated, stuck: &mut bool) {
-    let moving_dir = if before != 0.0 {
-        sign(before)
-    } else {
-        sign(opposition)
-    };
-    if opposition != 0.0 && sign(state.hi) != moving_dir {
-        state.set(0.0);
-        *stuck = true;
     }
 }
 
@@ -461,80 +417,10 @@ impl Simulator {
         // No ripple acts (`friction_only`): the tacho reads the shaft speed.
         self.push_tacho(self.omega.hi);
     }
-
-    #[inline(never)]
-    fn step_with_effects(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
-        let i0 = self.current.hi;
-        let w0 = self.omega.hi;
-        // Armature reaction as held inputs: the linear part uses kv; the flux loss adds
-        // back (1 - flux) kv w to the voltage and removes (1 - flux) kv i of torque.
-        let dkv = armature_reaction::lost_constant(self.effect(ParamId::Kar), self.kv, i0);
-        let mut volts = v + dkv * w0;
-        let mut load = tl + dkv * i0 + quadratic_load::torque(self.effect(ParamId::Kq), w0);
-        let vdt = self.effect(ParamId::Vdt);
-        if vdt != 0.0 {
-            volts -= bridge_deadtime::voltage(vdt, self.effect(ParamId::Ib), i0);
-        }
-        let vb = self.effect(ParamId::Vb);
-        let mut brush = 0.0;
-        let mut friction = 0.0;
-        let current_moves = if self.open {
-            false
-        } else if vb > 0.0 {
-            let law = |direction| brush_drop::voltage(vb, direction);
-            match dead_zone_opposition(i0, volts - self.kv * w0, law, &mut self.current_stuck) {
-                Some(o) => {
-                    brush = o;
-                    true
-                }
-                None => false,
-            }
-        } else {
-            true
-        };
-        let shaft_moves = if self.friction {
-            let friction_law = self.friction_law();
-            let law = |direction| friction_law.opposition(direction, w0);
-            match dead_zone_opposition(w0, self.kv * i0 - load, law, &mut self.shaft_stuck) {
-                Some(o) => {
-                    friction = o;
-                    true
-                }
-                None => false,
-            }
-        } else {
-            true
-        };
-        volts -= brush;
-        load += friction;
-        match (current_moves, shaft_moves) {
-            (true, true) => self.linear_update(i0, w0, volts, load),
-            (true, false) => self.current.add(self.disc.ae * i0 + self.disc.ge * volts),
-            (false, true) => self.mechanical_update(w0, load),
-            (false, false) => {}
-        }
-        if current_moves && vb > 0.0 {
-            stick_on_crossing(i0, brush, &mut self.current, &mut self.current_stuck);
-        }
-        if shaft_moves && self.friction {
-            let w1 = self.omega.hi;
-            stick_on_crossing(w0, friction, &mut self.omega, &mut self.shaft_stuck);
-            if self.shaft_stuck && w0 != 0.0 {
-                self.stop_within_step(i0, w0, w1, volts, load - friction);
-            }
-        } else if self.friction && current_moves && !self.open {
-            // Stuck over the step: break away where the drive torque reaches the opposition.
-            self.break_away_within_step(i0, volts, load);
-        }
-        if self.tracks_angle() {
-            let rate = measured_omega.unwrap_or(0.5 * (w0 + self.omega.hi));
-            let cycles = self.effect(ParamId::RippleCycles);
-            self.psi = tacho_ripple::advance(self.psi, cycles, rate, self.dt);
-        }
-        self.push_reading();
-    }
 }
 
+#[path = "sim_effect_step.rs"]
+mod effect_step;
 #[path = "sim_friction_events.rs"]
 mod friction_events;
 
