@@ -5,7 +5,7 @@
 //! drive allows.
 //!
 //! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ]
-//! [--adc-bits N (12; 0: no quantisation)] [--verbose]`
+//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--verbose]`
 
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
@@ -23,18 +23,9 @@ use std::collections::BTreeMap;
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let motors: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(200);
-    let rate: f32 = args
-        .iter()
-        .position(|a| a == "--rate")
-        .and_then(|k| args.get(k + 1))
-        .and_then(|r| r.parse().ok())
-        .unwrap_or(20_000.0);
-    let adc_bits: u32 = args
-        .iter()
-        .position(|a| a == "--adc-bits")
-        .and_then(|k| args.get(k + 1))
-        .and_then(|r| r.parse().ok())
-        .unwrap_or(12);
+    let rate: f32 = option(&args, "--rate").unwrap_or(20_000.0);
+    let adc_bits: u32 = option(&args, "--adc-bits").unwrap_or(12);
+    let coulomb: f32 = option(&args, "--coulomb").unwrap_or(0.05);
     let verbose = args.iter().any(|a| a == "--verbose");
     let limits = Limits::DEFAULT;
     let mut refusals: BTreeMap<String, usize> = BTreeMap::new();
@@ -56,7 +47,7 @@ fn main() {
     for m in 0..motors {
         let motor = table_one_motor(m as u64 + 1);
         let [ra, la, j, b, kv] = ParamId::MOTOR.map(|p| motor.get(p));
-        let tc = 0.05 * kv * limits.current;
+        let tc = coulomb * kv * limits.current;
         let truth = motor.with(ParamId::Tc, tc);
         let tau_m = j * ra / (kv * kv + ra * b);
         let looks_like_motor = kv * kv >= 3.0 * ra * b && la / ra < tau_m;
@@ -205,6 +196,12 @@ fn main() {
         seconds[seconds.len() / 2],
         seconds.last().unwrap()
     );
+}
+
+/// The value after `name` on the command line, if it is there and parses.
+fn option<T: std::str::FromStr>(args: &[String], name: &str) -> Option<T> {
+    let k = args.iter().position(|a| a == name)?;
+    args.get(k + 1)?.parse().ok()
 }
 
 /// `(SSE(truth) - SSE(estimate)) / (SSE(estimate) / n)` on the board's records: how many

@@ -13,5 +13,6 @@ pub mod linalg;
 pub mod objective;
 pub mod profile;
 pub mod refine;
+pub mod score_blocks;
 pub mod space;
 pub mod sums;

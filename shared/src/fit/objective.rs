@@ -8,6 +8,7 @@
 use crate::capacity::MAX_FREE;
 use crate::error::Error;
 use crate::fit::linalg::{Mat, Vector};
+use crate::fit::score_blocks::ScoreBlocks;
 use crate::fit::space::Space;
 use crate::fit::sums::{pooled_sigma, Partial, RecordSums, Totals, CHECK_EVERY, SHIFT};
 use crate::model::params::ModelParams;
@@ -146,11 +147,13 @@ impl<'r, 'a> Objective<'r, 'a> {
     }
 
     /// The initial state of record `r` for `p` from the data (see [`Record::initial_state`])
-    /// and, unless the record starts at rest, the same with the speed raised by [`SHIFT`] to
-    /// fit the initial speed (a known start at rest is information that is kept).
+    /// and, unless the record [starts at rest](Record::starts_at_rest), the same with the
+    /// speed raised by [`SHIFT`] to fit the initial speed (a known start at rest is
+    /// information that is kept).
     fn initial_pair(&self, r: &Record, p: &ModelParams) -> (InitialState, Option<InitialState>) {
         let init = r.initial_state(p, self.sigma_omega, self.sigma_current);
-        let shifted = (init.omega != 0.0).then_some(InitialState {
+        let at_rest = r.starts_at_rest(p, self.sigma_omega, self.sigma_current);
+        let shifted = (!at_rest).then_some(InitialState {
             omega: init.omega + SHIFT,
             ..init
         });
@@ -294,7 +297,21 @@ impl<'r, 'a> Objective<'r, 'a> {
         central: bool,
         out: &mut NormalEquations,
     ) -> bool {
-        self.normal_equations_sums(space, u, h, central, out)
+        self.normal_equations_sums(space, u, h, central, out, None)
+            .is_some()
+    }
+
+    /// [`Objective::normal_equations`], with the block scores of the residuals summed into
+    /// `scores` as well (for the identifiability analysis; see [`ScoreBlocks`]).
+    pub fn normal_equations_and_scores(
+        &self,
+        space: &Space,
+        u: &[f32],
+        h: f32,
+        out: &mut NormalEquations,
+        scores: &mut ScoreBlocks,
+    ) -> bool {
+        self.normal_equations_sums(space, u, h, true, out, Some(scores))
             .is_some()
     }
 
@@ -305,6 +322,7 @@ impl<'r, 'a> Objective<'r, 'a> {
         h: f32,
         central: bool,
         out: &mut NormalEquations,
+        mut scores: Option<&mut ScoreBlocks>,
     ) -> Option<()> {
         let dim = space.dim();
         let nominal = space.params(u);
@@ -358,6 +376,9 @@ impl<'r, 'a> Objective<'r, 'a> {
             let tracks = sim0.tracks_angle() || sims.iter().any(Simulator::tracks_angle);
             let with_current = r.current.is_some() && w > 0.0;
             let mut sums = RecordSums::new(dim, with_current, sim_s.is_some());
+            if let Some(s) = scores.as_deref_mut() {
+                s.start_record(r.len());
+            }
             for k in 0..r.len() {
                 let y0 = sim0.reading();
                 let read = |i: usize| if i == NOMINAL { y0 } else { sims[i].reading() };
@@ -373,6 +394,21 @@ impl<'r, 'a> Objective<'r, 'a> {
                 let (col_w, col_i) = (&col_w[..dim], &col_i[..dim]);
                 let (rw, ri) = sums.add_residuals(r, k, y0, w);
                 sums.add_jacobian(rw, ri, col_w, col_i);
+                if let Some(s) = scores.as_deref_mut() {
+                    // The residuals' response to the initial speed (see ScoreBlocks).
+                    let h = match sim_s.as_ref().map(Simulator::reading) {
+                        Some(ys) => (
+                            (ys.omega - y0.omega) / SHIFT,
+                            if with_current {
+                                w * (ys.current - y0.current) / SHIFT
+                            } else {
+                                0.0
+                            },
+                        ),
+                        None => (0.0, 0.0),
+                    };
+                    s.add(col_w, col_i, (rw, ri), h);
+                }
                 if let Some(s) = sim_s.as_ref() {
                     sums.add_shift_response(r, k, y0, s.reading(), w, col_w, col_i);
                 }
@@ -386,7 +422,10 @@ impl<'r, 'a> Objective<'r, 'a> {
                     s.apply(&input);
                 }
             }
-            sums.finish_into(w, &mut totals, Some((dim, &mut out.jtj, &mut out.jtr)));
+            let shift = sums.finish_into(w, &mut totals, Some((dim, &mut out.jtj, &mut out.jtr)));
+            if let Some(s) = scores.as_deref_mut() {
+                s.end_record(shift);
+            }
         }
         let cost = self.cost_of(&totals)?;
         let (jtj, jtr) = (&out.jtj, &out.jtr);

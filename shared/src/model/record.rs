@@ -101,9 +101,33 @@ impl<'a> Record<'a> {
         self.load.map_or(0.0, |l| l[k])
     }
 
-    /// Initial state of the simulation for this record and motor `p`. Speed: the first
-    /// reading, or exactly rest when it is within three standard deviations `sigma_omega` of
-    /// zero (a record that starts indistinguishable from rest starts at rest). Current: the
+    /// True when this record starts at rest for motor `p`: its first speed reading within
+    /// three standard deviations `sigma_omega` of zero and, when the current is fitted
+    /// (`sigma_current` given), its first current reading, less the sensor's offset `io`,
+    /// within three `sigma_current` of the current that holds a shaft at rest (the load
+    /// torque's, paper Eq. 4 with w = 0). A shaft still creeping under the speed noise after a
+    /// record before (a heavy rotor braked by its own back-EMF at 0 V) shows its braking
+    /// current `-Kv w / Ra`: taken for rest, its speed and current residuals persisted over
+    /// the whole record and pulled B by a factor two on a benchmark motor
+    /// (docs/measurements/commissioning.md).
+    pub fn starts_at_rest(
+        &self,
+        p: &ModelParams,
+        sigma_omega: f32,
+        sigma_current: Option<f32>,
+    ) -> bool {
+        let still = self.omega[0].abs() <= 3.0 * sigma_omega;
+        let holding = self.load_at(0) / p.get(ParamId::Kv);
+        let no_braking = match (self.current, sigma_current) {
+            (Some(c), Some(sc)) => (c[0] - p.get(ParamId::Io) - holding).abs() <= 3.0 * sc,
+            _ => true,
+        };
+        still && no_braking
+    }
+
+    /// Initial state of the simulation for this record and motor `p`. Speed: exactly rest
+    /// when the record [starts at rest](Record::starts_at_rest), else the first reading
+    /// (the fit then projects the initial speed out). Current: the
     /// mechanical equilibrium `Kv i = B w + tc sign(w) + kq w |w| + tl` (paper Eq. 4 with
     /// dw/dt = 0 and the friction effects), exact at rest and in steady state, unless the
     /// current is fitted (`sigma_current` given) and its first reading, less the sensor's
@@ -116,10 +140,11 @@ impl<'a> Record<'a> {
         sigma_omega: f32,
         sigma_current: Option<f32>,
     ) -> InitialState {
-        let mut omega = self.omega[0];
-        if omega.abs() <= 3.0 * sigma_omega {
-            omega = 0.0;
-        }
+        let omega = if self.starts_at_rest(p, sigma_omega, sigma_current) {
+            0.0
+        } else {
+            self.omega[0]
+        };
         let friction = FrictionLaw::of(p).opposition(sign(omega), omega)
             + quadratic_load::torque(p.get(ParamId::Kq), omega);
         let equilibrium =

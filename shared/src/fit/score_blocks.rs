@@ -1,0 +1,263 @@
+//! Batch-means estimate of the covariance of the fit's score `J^T r`, for standard
+//! deviations that stay honest when the residuals are not white.
+//!
+//! The Fisher information `J^T J / sigma^2` of [`crate::fit::identifiability`] assumes
+//! independent residuals. Residuals that are correlated over many samples make it
+//! optimistic: a tacho or current reading quantised with less noise than one count errs by
+//! the same amount for as long as the signal stays within that count (on the commissioning
+//! benchmark, fits 34 of their own standard deviations from the truth had a speed RMSE at the
+//! noise floor), and so does a residual misfit that persists over a record. The score's
+//! covariance `J^T Sigma J` then exceeds `sigma^2 J^T J`, and the estimate's covariance is the
+//! sandwich `(J^T J)^-1 (J^T Sigma J) (J^T J)^-1` (White 1982; the batch means of the score
+//! over consecutive blocks estimate the middle term, as in the cluster-robust covariance of
+//! least squares).
+//!
+//! Each record is cut into [`BLOCKS_PER_RECORD`] blocks of consecutive samples; the score of
+//! each block is summed, and the sum of the outer products of the block scores, centred on
+//! their mean within the record (a record's mean score is what its initial speed and a fit
+//! stopped short of the optimum leave), estimates `J^T Sigma J` for correlations shorter than
+//! a block. Fixed memory: one triangle of sums whatever the record length.
+
+use crate::capacity::MAX_FREE;
+use crate::fit::sums::{triangle_index, TRIANGLE};
+
+/// Blocks per record: enough that the estimate is not dominated by a few blocks (its
+/// relative standard deviation is about `sqrt(2 / blocks)`, 18 % of a variance for the
+/// board's two records), few enough that a block spans the records' slow correlations.
+pub const BLOCKS_PER_RECORD: usize = 32;
+
+/// Streaming sums of the block scores of a fit's records.
+///
+/// A record whose initial speed is projected out ([`crate::fit::sums::RecordSums`]) has the
+/// residual `r - c h`, with `h` the readings' response to the initial speed and `c` the
+/// least-squares shift, known only at the record's end. So each block's score is kept as two
+/// parts, `Gr = sum J r` and `Gh = sum J h`, and the outer products of the record's blocks as
+/// three sums (`Gr Gr^T`, straight into the total, and `Gr Gh^T + Gh Gr^T`, `Gh Gh^T`),
+/// combined with `c` when the record ends. (The Jacobian's own projection along `h` is left out: it changes no block's score
+/// where `h` has died away, and the record's centring removes its mean.) f32 sums: the
+/// board's stack holds this beside the normal equations.
+#[derive(Clone, Copy, Debug)]
+pub struct ScoreBlocks {
+    dim: usize,
+    /// Samples per block of the record being summed.
+    block_len: usize,
+    /// Samples in the current block.
+    in_block: usize,
+    /// `Gr` and `Gh` of the current block.
+    block: [[f32; MAX_FREE]; 2],
+    /// Sums of `Gr` and `Gh` over the record's blocks.
+    record_sum: [[f32; MAX_FREE]; 2],
+    /// Blocks of the record being summed.
+    record_blocks: u32,
+    /// The record's `Gr Gh^T + Gh Gr^T` and `Gh Gh^T` (lower triangles).
+    record_outer: [[f32; TRIANGLE]; 2],
+    /// Lower triangle of the sum of outer products over the records summed (centred and
+    /// shifted as each record ends; the current record's `Gr Gr^T` as it goes).
+    outer: [f32; TRIANGLE],
+    /// Blocks over all records summed.
+    blocks: u32,
+    /// Records summed.
+    records: u32,
+}
+
+impl ScoreBlocks {
+    /// No sums yet, for `dim` free coordinates.
+    pub fn new(dim: usize) -> Self {
+        ScoreBlocks {
+            dim,
+            ..ScoreBlocks::EMPTY
+        }
+    }
+
+    /// No sums, no coordinates (a constant: built in place, not on the stack and copied).
+    pub const EMPTY: ScoreBlocks = ScoreBlocks {
+        dim: 0,
+        block_len: 1,
+        in_block: 0,
+        block: [[0.0; MAX_FREE]; 2],
+        record_sum: [[0.0; MAX_FREE]; 2],
+        record_blocks: 0,
+        record_outer: [[0.0; TRIANGLE]; 2],
+        outer: [0.0; TRIANGLE],
+        blocks: 0,
+        records: 0,
+    };
+
+    /// Sum `dim` free coordinates.
+    pub fn set_dim(&mut self, dim: usize) {
+        self.dim = dim;
+    }
+
+    /// Begin a record of `samples` samples.
+    pub fn start_record(&mut self, samples: usize) {
+        self.block_len = samples.div_ceil(BLOCKS_PER_RECORD).max(1);
+        self.in_block = 0;
+        self.block = [[0.0; MAX_FREE]; 2];
+        self.record_sum = [[0.0; MAX_FREE]; 2];
+        self.record_blocks = 0;
+        self.record_outer = [[0.0; TRIANGLE]; 2];
+    }
+
+    /// Add one sample: the Jacobian rows `col_w`, `col_i` of its (weighted) speed and current
+    /// residuals `r = (rw, ri)` and the responses `h = (hw, hi)` of those residuals' readings
+    /// to the record's initial speed (zeros for a record that starts at rest).
+    pub fn add(&mut self, col_w: &[f32], col_i: &[f32], r: (f32, f32), h: (f32, f32)) {
+        for d in 0..self.dim {
+            self.block[0][d] += col_w[d] * r.0 + col_i[d] * r.1;
+            self.block[1][d] += col_w[d] * h.0 + col_i[d] * h.1;
+        }
+        self.in_block += 1;
+        if self.in_block == self.block_len {
+            self.close_block();
+        }
+    }
+
+    fn close_block(&mut self) {
+        let [gr, gh] = self.block;
+        for a in 0..self.dim {
+            self.record_sum[0][a] += gr[a];
+            self.record_sum[1][a] += gh[a];
+            for b in 0..=a {
+                let t = triangle_index(a, b);
+                self.outer[t] += gr[a] * gr[b];
+                self.record_outer[0][t] += gr[a] * gh[b] + gh[a] * gr[b];
+                self.record_outer[1][t] += gh[a] * gh[b];
+            }
+        }
+        self.record_blocks += 1;
+        self.block = [[0.0; MAX_FREE]; 2];
+        self.in_block = 0;
+    }
+
+    /// End the record whose least-squares initial-speed shift is `shift` (0 for a record
+    /// that starts at rest): its block scores `Gr - shift Gh`, centred on their mean.
+    pub fn end_record(&mut self, shift: f32) {
+        if self.in_block > 0 {
+            self.close_block();
+        }
+        if self.record_blocks == 0 {
+            return;
+        }
+        let n = self.record_blocks as f32;
+        let [rh, hh] = &self.record_outer;
+        let [sr, sh] = &self.record_sum;
+        for a in 0..self.dim {
+            let mean_a = sr[a] - shift * sh[a];
+            for b in 0..=a {
+                let t = triangle_index(a, b);
+                let mean_b = sr[b] - shift * sh[b];
+                self.outer[t] += shift * shift * hh[t] - shift * rh[t] - mean_a * mean_b / n;
+            }
+        }
+        self.blocks += self.record_blocks;
+        self.records += 1;
+        self.record_blocks = 0;
+    }
+
+    /// The estimate of `J^T Sigma J` at `(a, b)` (unit coordinates), with the small-sample
+    /// factor `blocks / (blocks - records - dim)` for the records' means and the fitted
+    /// coordinates that the centred block scores have lost; `None` with too few blocks for
+    /// that (fewer than twice as many as are lost).
+    pub fn covariance(&self, a: usize, b: usize) -> Option<f64> {
+        let lost = self.records as usize + self.dim;
+        let blocks = self.blocks as usize;
+        if blocks <= 2 * lost {
+            return None;
+        }
+        let factor = blocks as f64 / (blocks - lost) as f64;
+        Some(factor * self.outer[triangle_index(a.max(b), a.min(b))] as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{normal, seeded};
+
+    /// Scores of a straight-line fit `y = a + b t` (Jacobian rows `[1, t]`) for residuals
+    /// `r`, one record.
+    fn blocks_of(r: &[f32]) -> f64 {
+        let mut s = ScoreBlocks::new(2);
+        s.start_record(r.len());
+        let n = r.len() as f32;
+        for (k, &x) in r.iter().enumerate() {
+            s.add(&[1.0, k as f32 / n], &[0.0, 0.0], (x, 0.0), (0.0, 0.0));
+        }
+        s.end_record(0.0);
+        s.covariance(1, 1).expect("enough blocks")
+    }
+
+    #[test]
+    fn white_residuals_give_the_white_covariance_and_correlated_ones_more() {
+        let n = 6400;
+        let mut rng = seeded(7);
+        let white: Vec<f32> = (0..n).map(|_| normal(&mut rng)).collect();
+        // sum over t of t^2 / n^2 for t in 0..n, the white J^T J entry of the slope.
+        let jtj_slope: f64 = (0..n).map(|k| (k as f64 / n as f64).powi(2)).sum();
+        // Averaged over seeds: the estimate of one record has ~25 % spread.
+        let mut ratio = 0.0;
+        let seeds = 40;
+        for seed in 0..seeds {
+            let mut rng = seeded(100 + seed);
+            let r: Vec<f32> = (0..n).map(|_| normal(&mut rng)).collect();
+            ratio += blocks_of(&r) / jtj_slope;
+        }
+        ratio /= seeds as f64;
+        assert!((ratio - 1.0).abs() < 0.1, "white: {ratio}");
+        // A first-order autoregression with coefficient 0.9 has a long-run variance
+        // (1 + 0.9) / (1 - 0.9) = 19 times its innovations' (for unit-variance samples).
+        let mut x = 0.0f32;
+        let ar: Vec<f32> = white
+            .iter()
+            .map(|e| {
+                x = 0.9 * x + libm::sqrtf(1.0 - 0.81) * e;
+                x
+            })
+            .collect();
+        let ratio = blocks_of(&ar) / jtj_slope;
+        assert!(ratio > 8.0 && ratio < 30.0, "correlated: {ratio}");
+    }
+
+    #[test]
+    fn a_record_whose_initial_speed_is_projected_counts_its_projected_residual() {
+        // Residual r = e + c h with h a decaying response: after the shift c the block
+        // scores are those of e alone, as if the record had been fitted from its true start.
+        let n = 3200;
+        let mut rng = seeded(5);
+        let e: Vec<f32> = (0..n).map(|_| normal(&mut rng)).collect();
+        let h: Vec<f32> = (0..n).map(|k| libm::expf(-(k as f32) / 400.0)).collect();
+        let c = 7.0f32;
+        let col = |k: usize| [1.0f32, k as f32 / n as f32];
+        let mut plain = ScoreBlocks::new(2);
+        let mut shifted = ScoreBlocks::new(2);
+        plain.start_record(n);
+        shifted.start_record(n);
+        for k in 0..n {
+            plain.add(&col(k), &[0.0; 2], (e[k], 0.0), (0.0, 0.0));
+            shifted.add(&col(k), &[0.0; 2], (e[k] + c * h[k], 0.0), (h[k], 0.0));
+        }
+        plain.end_record(0.0);
+        shifted.end_record(c);
+        for (a, b) in [(0, 0), (1, 0), (1, 1)] {
+            let (x, y) = (
+                plain.covariance(a, b).unwrap(),
+                shifted.covariance(a, b).unwrap(),
+            );
+            assert!(
+                (x - y).abs() <= 1e-3 * x.abs().max(1.0),
+                "({a}, {b}): {x} vs {y}"
+            );
+        }
+    }
+
+    #[test]
+    fn too_few_blocks_give_no_estimate() {
+        let mut s = ScoreBlocks::new(5);
+        s.start_record(4);
+        for _ in 0..4 {
+            s.add(&[1.0; 5], &[0.0; 5], (1.0, 0.0), (0.0, 0.0));
+        }
+        s.end_record(0.0);
+        assert!(s.covariance(0, 0).is_none());
+    }
+}
