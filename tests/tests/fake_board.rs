@@ -6,7 +6,7 @@
 
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
-    BoardMessage, Estimate, HostMessage, JobStage, MotorReport, Refusal, PROTOCOL_VERSION,
+    BoardMessage, Estimate, HostMessage, JobStage, MotorReport, Plan, Refusal, PROTOCOL_VERSION,
 };
 use motor_id_tests::motor_id;
 use serialport::{SerialPort, TTYPort};
@@ -64,7 +64,7 @@ fn start_board(path: &str, args: &[&str]) -> std::process::Child {
     Command::new(motor_id())
         .args(["board", "--port", path, "--timeout", "1", "-q"])
         .args(args)
-        .stdout(Stdio::null())
+        .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap()
@@ -77,17 +77,27 @@ fn failed_in_one_line((ok, err): (bool, String), expected: &str) {
     assert!(err.contains(expected), "{err}");
 }
 
-fn wait(mut child: std::process::Child, args: &[&str]) -> (bool, String) {
+fn wait(child: std::process::Child, args: &[&str]) -> (bool, String) {
+    let (ok, _, err) = wait_output(child, args);
+    (ok, err)
+}
+
+/// [`wait`], with the host's stdout too (its few lines fit the pipe's buffer).
+fn wait_output(mut child: std::process::Child, args: &[&str]) -> (bool, String, String) {
     for _ in 0..600 {
         if let Some(status) = child.try_wait().unwrap() {
-            let mut err = String::new();
+            let (mut out, mut err) = (String::new(), String::new());
+            // (A child spawned with its stdout elsewhere has none to read.)
+            if let Some(o) = child.stdout.as_mut() {
+                o.read_to_string(&mut out).unwrap();
+            }
             child
                 .stderr
                 .take()
                 .unwrap()
                 .read_to_string(&mut err)
                 .unwrap();
-            return (status.success(), err);
+            return (status.success(), out, err);
         }
         std::thread::sleep(Duration::from_millis(100));
     }
@@ -186,6 +196,67 @@ fn frames_that_arrive_in_one_read_are_all_decoded() {
     let (ok, err) = board(&path, &["commission"]);
     stop.store(true, Ordering::Relaxed);
     assert!(ok, "{err}");
+}
+
+#[test]
+fn a_commissioning_says_why_a_parameter_is_not_pinned() {
+    // The board plans a slow record of 1.6 s for a mechanical time scale of 6.8 s and
+    // reports parameter 4 (kv) unpinned: the host names the reason, in the text and in the
+    // JSON, from the plan it was sent.
+    let plan = Plan {
+        current_offset: 0.0,
+        breakaway_volts: 2.0,
+        ra: 3.4,
+        tau_e: 0.017,
+        kv: 0.16,
+        tau_m: 6.8,
+        volts: 20.0,
+        fast_dt: 0.0005,
+        fast_samples: 400,
+        slow_dt: 0.001,
+        slow_samples: 1600,
+        probe_seconds: 2.0,
+        planned_seconds: 4.0,
+    };
+    let mut report = five_parameters();
+    report.estimates[4].std = f32::NAN;
+    let (path, stop, _slave) = fake_board(
+        move |msg| match msg {
+            HostMessage::Commission { .. } => vec![
+                BoardMessage::Planned(plan),
+                BoardMessage::Identified(report.clone()),
+            ],
+            other => plain_reply(other),
+        },
+        None,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("r.json");
+    let args = ["--json", json.to_str().unwrap(), "commission"];
+    let (ok, out, err) = wait_output(start_board(&path, &args), &args);
+    stop.store(true, Ordering::Relaxed);
+    assert!(ok, "{err}");
+    let why = "kv not pinned: the slow record (1.600 s) covers less than 3 mechanical time scales (20.400 s)";
+    assert!(out.contains(why), "{out}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let unpinned = r["unpinned"].as_object().expect("unpinned reasons");
+    assert_eq!(unpinned.len(), 1, "{r}");
+    assert!(
+        unpinned["kv"]
+            .as_str()
+            .unwrap()
+            .contains("time budget (--budget)"),
+        "{r}"
+    );
+    assert_eq!(
+        r["identifiability"]["parameters"]["kv"]["pinned"], false,
+        "{r}"
+    );
+    assert_eq!(
+        r["identifiability"]["parameters"]["ra"]["pinned"], true,
+        "{r}"
+    );
 }
 
 #[test]

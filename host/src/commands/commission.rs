@@ -7,18 +7,17 @@ use crate::board_records::{check_out_dir, write_records};
 use crate::limits_args::{within, LimitArgs};
 use crate::output::write_json;
 use crate::progress::{BarState, FitProgress};
-use crate::report::board::{plan_text, BoardReport};
+use crate::report::board::{plan_text, unpinned_reasons, unpinned_text, BoardReport};
 use crate::report::Num;
 use crate::spec::{parse_effect, parse_motor, EffectSpec};
 use anyhow::{bail, Result};
 use clap::Args;
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
-use motor_id_shared::device::unpinned::why_not_pinned;
 use motor_id_shared::device::virtual_board::commission;
 use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::{BoardMessage, Plan};
-use motor_id_shared::{ModelParams, ParamId};
+use motor_id_shared::ModelParams;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -127,18 +126,7 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
     });
     bar.finish();
     let unpinned = match (&outcome.result, &outcome.plan) {
-        (Ok(r), Some(plan)) => r
-            .estimates
-            .iter()
-            .filter(|e| !e.pinned())
-            .filter_map(|e| ParamId::ALL.get(usize::from(e.param)))
-            .map(|&id| {
-                (
-                    id.name(),
-                    why_not_pinned(id, r, plan, current_count).to_string(),
-                )
-            })
-            .collect(),
+        (Ok(r), Some(plan)) => unpinned_reasons(r, plan, current_count),
         _ => BTreeMap::new(),
     };
     let (motor, refusal) = match &outcome.result {
@@ -164,10 +152,7 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
         bail!("not commissioned: {why}");
     }
     if let Some(m) = &report.motor {
-        print!("{}", m.text());
-        for (name, why) in &report.unpinned {
-            println!("{name} not pinned: {why}");
-        }
+        print!("{}{}", m.text(), unpinned_text(&report.unpinned));
         println!("experiment: {:.1} s", outcome.seconds);
     }
     Ok(())

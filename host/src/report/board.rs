@@ -4,9 +4,11 @@
 
 use crate::report::{ByParam, Num, ParamEstimate};
 use anyhow::{anyhow, Result};
+use motor_id_shared::device::unpinned::why_not_pinned;
 use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::protocol::{MotorReport, Plan};
 use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// What `board` reports of a motor: the `identify` report's fields that a board sends.
 #[derive(Serialize, Debug)]
@@ -21,6 +23,10 @@ pub struct BoardReport {
     evaluations: u32,
     /// What the data pins.
     identifiability: BoardIdentifiability,
+    /// Why each parameter the data did not pin is not pinned (`board commission`; absent
+    /// when empty).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    unpinned: BTreeMap<&'static str, String>,
 }
 
 /// The board's identifiability: rank and each parameter's estimate.
@@ -61,7 +67,15 @@ impl BoardReport {
                 free: parameters.0.len(),
                 parameters,
             },
+            unpinned: BTreeMap::new(),
         })
+    }
+
+    /// This report with the reasons of its unpinned parameters ([`unpinned_reasons`]),
+    /// printed after the parameters and written to the JSON.
+    pub fn with_unpinned(mut self, unpinned: BTreeMap<&'static str, String>) -> BoardReport {
+        self.unpinned = unpinned;
+        self
     }
 
     /// The text printed on stdout.
@@ -78,8 +92,38 @@ impl BoardReport {
             "rmse_omega = {} rad/s, {} evaluations, rank {}\n",
             self.rmse_omega.0, self.evaluations, self.identifiability.rank
         );
+        s += &unpinned_text(&self.unpinned);
         s
     }
+}
+
+/// Why each parameter of `r` that is not pinned is not pinned, by name, from the
+/// commissioning's `plan` and one count of the current reading `current_count` [A] (0 when
+/// it is not known: no parameter is then said to be below the resolution).
+pub fn unpinned_reasons(
+    r: &MotorReport,
+    plan: &Plan,
+    current_count: f32,
+) -> BTreeMap<&'static str, String> {
+    r.estimates
+        .iter()
+        .filter(|e| !e.pinned())
+        .filter_map(|e| ParamId::ALL.get(usize::from(e.param)))
+        .map(|&id| {
+            (
+                id.name(),
+                why_not_pinned(id, r, plan, current_count).to_string(),
+            )
+        })
+        .collect()
+}
+
+/// One line per unpinned parameter: `NAME not pinned: WHY`.
+pub fn unpinned_text(unpinned: &BTreeMap<&'static str, String>) -> String {
+    unpinned
+        .iter()
+        .map(|(name, why)| format!("{name} not pinned: {why}\n"))
+        .collect()
 }
 
 /// The plan of a commissioning in a few lines: what the probe measured, the experiment

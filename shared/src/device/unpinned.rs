@@ -89,7 +89,7 @@ impl core::fmt::Display for Unpinned {
         match *self {
             Unpinned::TimeScale { covered, needed } => write!(
                 f,
-                "the slow record ({covered:.3} s) covers less than {MECHANICAL_SPAN} mechanical time scales ({needed:.3} s): give a larger --budget"
+                "the slow record ({covered:.3} s) covers less than {MECHANICAL_SPAN} mechanical time scales ({needed:.3} s): give a larger time budget (--budget)"
             ),
             Unpinned::FasterThanSampling { tau_e, step } => write!(
                 f,

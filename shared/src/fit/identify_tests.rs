@@ -354,10 +354,10 @@ fn correlated_noise_widens_the_reported_spread() {
     // A first-order autoregression with coefficient 0.9 has a long-run variance 19 times
     // its samples' variance: the white-noise Fisher information overstates what the record
     // holds by about that much (a spread 4.4 times too small), the block scores
-    // (fit::score_blocks) much less: they widen Ra and Kv 2.3 to 4.5 times over these seeds
-    // (without them: 1.0), and 4 of the 6 fits then hold every pinned parameter within
-    // 3 reported deviations (the misses: B at 3.4, Ra at 5 deviations; an estimate of a
-    // long-run variance from 32 blocks is itself uncertain by about a quarter).
+    // (fit::score_blocks) much less: they widen Ra and Kv 2.2 to 4.3 times over these seeds
+    // (without them: 1.0), and 5 of the 6 fits then hold every pinned parameter within
+    // 3 reported deviations (an estimate of a long-run variance from 16 blocks is itself
+    // uncertain by about a third).
     let mut covered = 0;
     for seed in 1..=6 {
         let (ra_white, kv_white, _) = reported_spread(0.0, seed);
@@ -368,5 +368,5 @@ fn correlated_noise_widens_the_reported_spread() {
         );
         covered += within as usize;
     }
-    assert!(covered >= 4, "{covered} of 6 fits within 3 reported std");
+    assert!(covered >= 5, "{covered} of 6 fits within 3 reported std");
 }

@@ -7,7 +7,7 @@ use crate::report::board::plan_text;
 use anyhow::{anyhow, bail, Context, Result};
 use motor_id_shared::wire::frame::{encode, Decoder, MAX_FRAME};
 use motor_id_shared::wire::protocol::{
-    BoardMessage, HostMessage, MotorReport, Refusal, PROTOCOL_VERSION,
+    BoardMessage, HostMessage, MotorReport, Plan, Refusal, PROTOCOL_VERSION,
 };
 use std::collections::VecDeque;
 use std::io::{Read, Write};
@@ -180,14 +180,20 @@ pub fn hello(c: &mut Connection) -> Result<u32> {
 }
 
 /// Wait for the end of a long job, showing its progress; `allowance` more than the timeout
-/// after each frame for a job that stores its result ([`ERASE_ALLOWANCE`]).
-pub fn follow_job(c: &mut Connection, quiet: bool, allowance: Duration) -> Result<MotorReport> {
+/// after each frame for a job that stores its result ([`ERASE_ALLOWANCE`]). The report, and
+/// the plan of a commissioning.
+pub fn follow_job(
+    c: &mut Connection,
+    quiet: bool,
+    allowance: Duration,
+) -> Result<(MotorReport, Option<Plan>)> {
     let bar = FitProgress::new(quiet);
     let wait = c.timeout + allowance;
     // The clock restarts only when a progress frame shows the job advancing: a board that
     // repeats itself, or sends frames that belong to no job, is timed out like a silent one.
     let mut deadline = Instant::now() + wait;
     let mut last = None;
+    let mut planned = None;
     let out = loop {
         match c.receive_until(deadline, wait) {
             Ok(
@@ -206,11 +212,12 @@ pub fn follow_job(c: &mut Connection, quiet: bool, allowance: Duration) -> Resul
                     bar.show(&state);
                 }
             }
-            Ok(BoardMessage::Identified(report)) => break Ok(report),
+            Ok(BoardMessage::Identified(report)) => break Ok((report, planned)),
             Ok(BoardMessage::Planned(plan)) => {
                 if !quiet {
                     bar.println(&plan_text(&plan));
                 }
+                planned = Some(plan);
             }
             Ok(BoardMessage::Aborted) => break Err(anyhow!("the board aborted the job")),
             Ok(BoardMessage::Refused(r)) => break Err(anyhow!("the board refused: {r}")),

@@ -11,7 +11,7 @@ use crate::csvio::OwnedRecord;
 use crate::fit::PipelineArg;
 use crate::limits_args::{limits_text, LimitArgs};
 use crate::output::write_json;
-use crate::report::board::BoardReport;
+use crate::report::board::{unpinned_reasons, BoardReport};
 use anyhow::{anyhow, Result};
 use clap::{Args, Subcommand};
 use connection::{follow_job, hello, refused, Connection, ERASE_ALLOWANCE};
@@ -134,13 +134,19 @@ pub fn run(a: &BoardArgs) -> Result<()> {
                 seed: a.seed,
                 pipeline: (*pipeline).into(),
             })?;
-            follow_job(&mut c, a.quiet, Duration::ZERO)?
+            follow_job(&mut c, a.quiet, Duration::ZERO)?.0
         }
         BoardAction::Commission => {
             c.send(&HostMessage::Commission { seed: a.seed })?;
             // Commissioning stores its result: the board erases its parameter sector
             // before it answers.
-            follow_job(&mut c, a.quiet, ERASE_ALLOWANCE)?
+            let (report, plan) = follow_job(&mut c, a.quiet, ERASE_ALLOWANCE)?;
+            // The host does not know the board's ADC count: no parameter is said to lie
+            // below it (such a one reads as not separated by the records).
+            let unpinned =
+                plan.map_or_else(Default::default, |p| unpinned_reasons(&report, &p, 0.0));
+            let out = BoardReport::new(&report)?.with_unpinned(unpinned);
+            return print_board_report(&out, a);
         }
         BoardAction::Params => match read_params(&mut c)? {
             Ok(r) => r,
@@ -174,10 +180,14 @@ pub fn run(a: &BoardArgs) -> Result<()> {
             return Ok(());
         }
     };
-    let report = BoardReport::new(&report)?;
+    print_board_report(&BoardReport::new(&report)?, a)
+}
+
+/// Print `report` and write it to `--json`.
+fn print_board_report(report: &BoardReport, a: &BoardArgs) -> Result<()> {
     print!("{}", report.text());
     if let Some(path) = &a.json {
-        write_json(path, &report)?;
+        write_json(path, report)?;
     }
     Ok(())
 }
