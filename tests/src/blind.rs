@@ -23,13 +23,18 @@ const NOISE_CURRENT: f64 = 0.05;
 /// The new catalogue entries of this check, by the name the case line uses.
 pub const SINGLES: [&str; 4] = ["static", "asymmetric", "deadtime", "offset"];
 
-/// The catalogue name of a case's effect.
-pub fn entry(effect: &str) -> &'static str {
+/// Effects the catalogue does not hold, by the name the case line uses: a drive's current
+/// limit and cogging. Nothing may be named for them.
+pub const WITHHELD: [&str; 2] = ["limit", "cogging"];
+
+/// The catalogue name of a case's effect; `None` for a withheld one.
+pub fn entry(effect: &str) -> Option<&'static str> {
     match effect {
-        "static" => "static_friction",
-        "asymmetric" => "asymmetric_friction",
-        "deadtime" => "bridge_deadtime",
-        "offset" => "current_offset",
+        "static" => Some("static_friction"),
+        "asymmetric" => Some("asymmetric_friction"),
+        "deadtime" => Some("bridge_deadtime"),
+        "offset" => Some("current_offset"),
+        "limit" | "cogging" => None,
         other => panic!("unknown effect {other}"),
     }
 }
@@ -50,7 +55,8 @@ fn motor(g: &mut Gaussian) -> Motor {
 /// Effect sizes for `effects` on `m`: Coulomb 2-4 % of the stall torque, a break-away excess
 /// 2-5 % over 2-10 % of the top speed, an asymmetry of a third to two thirds of the Coulomb
 /// torque, a dead-time error of 2-4 % of the supply over 2-5 % of the stall current, a
-/// current offset of 1-3 % of the stall current (either sign).
+/// current offset of 1-3 % of the stall current (either sign), a drive's current limit at
+/// 35-40 % of the stall current, cogging of 5 % of the stall torque at 12 per revolution.
 fn effects(names: &[&str], m: &Motor, g: &mut Gaussian) -> Effects {
     let stall_torque = VOLTS / m.ra * m.kv;
     let stall_current = VOLTS / m.ra;
@@ -78,6 +84,12 @@ fn effects(names: &[&str], m: &Motor, g: &mut Gaussian) -> Effects {
             "offset" => {
                 let sign = if u(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
                 e.io = sign * u(0.01, 0.03) * stall_current;
+            }
+            "limit" => e.imax = u(0.35, 0.4) * stall_current,
+            "cogging" => {
+                e.cog_amp = 0.05 * stall_torque;
+                e.cog_cycles = 12.0;
+                e.cog_phase = u(0.0, std::f64::consts::TAU);
             }
             other => panic!("unknown effect {other}"),
         }

@@ -105,6 +105,16 @@ pub struct Effects {
     pub ripple_cycles: f64,
     /// Ripple phase [rad].
     pub ripple_phase: f64,
+    /// The drive's current limit [A] (0: none): it lowers the applied voltage so that
+    /// |i| stays at most `imax`, while the log keeps the commanded voltage.
+    pub imax: f64,
+    /// Cogging (detent) torque amplitude [N m]: `cog_amp sin(cog_cycles theta + cog_phase)`
+    /// against the shaft.
+    pub cog_amp: f64,
+    /// Cogging cycles per revolution.
+    pub cog_cycles: f64,
+    /// Cogging phase [rad].
+    pub cog_phase: f64,
 }
 
 /// A run of the plant: the readings (as a record CSV holds them) and the truth.

@@ -8,7 +8,11 @@
 //! - paper Eq. 4 (shaft): `J dw/dt = Kv_eff i - B w - friction(w) - kq w |w| - tl`, with
 //!   `friction(w) = sign(w) (tc ± ta + ts exp(-(w/ws)^2))`;
 //! - paper Eq. 2-3 with armature reaction: `Kv_eff = Kv max(1 - kar |i|, 0.1)`;
-//! - `dtheta/dt = w` (the rotor angle, for the tacho ripple and the encoder).
+//! - `dtheta/dt = w` (the rotor angle, for the tacho ripple, the encoder and cogging);
+//! - a current-limiting drive: `v_applied` clamped to `Kv_eff w + vb sign(i) ± Ra imax`, the
+//!   voltages that hold `|i|` at `imax` (below it the current rises towards it with La/Ra);
+//! - cogging: a detent torque `cog_amp sin(cog_cycles theta + cog_phase)` against the
+//!   shaft, in the torque balance and in the break-away test at rest.
 
 use super::{Effects, Motor};
 
@@ -116,6 +120,21 @@ impl Dynamics {
         }
     }
 
+    /// The bridge's voltage `v` after the drive's current limit, at state `s`.
+    fn limited(&self, v: f64, s: State) -> f64 {
+        if self.e.imax <= 0.0 {
+            return v;
+        }
+        let emf = self.kv_eff(s.i) * s.w + self.e.vb * sign(s.i);
+        let reach = self.m.ra * self.e.imax;
+        v.clamp(emf - reach, emf + reach)
+    }
+
+    /// The cogging torque at angle `theta` [N m].
+    fn cogging(&self, theta: f64) -> f64 {
+        self.e.cog_amp * (self.e.cog_cycles * theta + self.e.cog_phase).sin()
+    }
+
     fn has_friction(&self) -> bool {
         self.e.tc > 0.0 || self.e.ts > 0.0
     }
@@ -127,7 +146,8 @@ impl Dynamics {
         let di = if h.current_blocked {
             0.0
         } else {
-            (self.applied(h.v, s.i) - m.ra * s.i - kv * s.w - e.vb * h.current_dir) / m.la
+            (self.applied(self.limited(h.v, s), s.i) - m.ra * s.i - kv * s.w - e.vb * h.current_dir)
+                / m.la
         };
         let dw = if h.shaft_stuck {
             0.0
@@ -136,6 +156,7 @@ impl Dynamics {
                 - m.b * s.w
                 - self.friction(s.w, h.motion_dir)
                 - e.kq * s.w * s.w.abs()
+                - self.cogging(s.theta)
                 - h.tl)
                 / m.j
         };
@@ -167,7 +188,7 @@ impl Dynamics {
         if self.has_friction() && s.w == 0.0 {
             // At rest: break away only when the drive torque exceeds tc (+-ta) + ts.
             let current = if h.current_blocked { 0.0 } else { s.i };
-            let drive = self.kv_eff(current) * current - tl;
+            let drive = self.kv_eff(current) * current - tl - self.cogging(s.theta);
             let dir = sign(drive);
             h.shaft_stuck = dir == 0.0 || drive.abs() <= self.break_away(dir);
             h.motion_dir = dir;

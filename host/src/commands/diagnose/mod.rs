@@ -2,13 +2,17 @@
 //! the misfit shrinks once it is modelled — judged on held-out records the fit never saw.
 //!
 //! This module holds the arguments and runs the steps: [`search`] fits the baseline and the
-//! catalogue's effects on the records of [`data`] (where the baseline misfits: [`regimes`]
+//! catalogue's effects (each one added by [`effect_fit`]) on the records of [`data`] (where the baseline misfits: [`regimes`]
 //! and [`spectrum`]; whether an effect is real: [`verdict`]), [`coverage`] names the regimes
 //! only the held-out records visit, [`repeatability`] measures how far repeat runs differ
-//! (what no model can remove), [`report`] says what was found, [`plot`] draws it.
+//! (what no model can remove), [`naming`] decides whether the effects found may be named
+//! as causes or only stand in for part of the misfit, [`report`] says what was found,
+//! [`plot`] draws it.
 
 mod coverage;
 mod data;
+mod effect_fit;
+mod naming;
 mod plot;
 mod regimes;
 mod remainder;
@@ -115,7 +119,10 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     if let Some(path) = &a.plot {
         let base = &found.baseline.fit.result.params;
         // The verdict's model: every named effect (what `holdout_rmse_after` judges).
-        let chosen = found.chosen().map(|_| &found.last().fit.result.params);
+        let chosen = found
+            .chosen()
+            .filter(|_| report.verdict.partial.is_empty())
+            .map(|_| &found.last().fit.result.params);
         plot::plot(path, &data, base, chosen, &report)?;
     }
     Ok(())

@@ -3,6 +3,7 @@
 
 use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
+use super::naming::{stand_in_reason, stand_ins, Channel, PartialStandIn};
 use super::regimes::WhereReport;
 use super::remainder::{floor, unexplained, Remainder, UNEXPLAINED_RATIO};
 use super::repeatability::Repeatability;
@@ -99,6 +100,10 @@ pub struct Verdict {
     pub second: Second,
     /// Every effect named, in the order they were added (empty: none).
     pub effects: Vec<NamedEffect>,
+    /// Effects the search found significant but that are not named: together they leave
+    /// most of a channel's misfit above its floor, so they may stand in for a cause the
+    /// catalogue does not hold ([`super::naming`]; empty when the effects are named).
+    pub partial: Vec<PartialStandIn>,
     /// The final model's parameters (the baseline's with no effect named), as `identify`
     /// reports them: what `validate --params` reads.
     pub params: ByParam<Num>,
@@ -239,7 +244,6 @@ impl DiagnoseReport {
                 significant: first == Some(*e) || search.significant(*e, s),
             })
             .collect();
-        let chosen = search.chosen();
         let after = search.last();
         let current = baseline
             .holdout_rmse_current
@@ -251,6 +255,42 @@ impl DiagnoseReport {
                 holdout_noise: Num(noise),
                 unexplained: unexplained(after, noise),
             });
+        // A name only for what the effects explain: on every channel, most of the excess
+        // above the floor gone, or what is left within the floor.
+        let (floor_rmse, _) = floor(holdout_noise, repeatability.holdout_floor().map(|f| f.0));
+        let speed = Channel {
+            before: baseline.holdout_rmse,
+            after: after.holdout_rmse,
+            floor: floor_rmse,
+            unexplained: remainder.is_some(),
+            name: "speed",
+        };
+        let channels: Vec<Channel> = std::iter::once(speed)
+            .chain(current.as_ref().map(|c| Channel {
+                before: c.holdout_rmse_before.0,
+                after: c.holdout_rmse_after.0,
+                floor: c.holdout_noise.0,
+                unexplained: c.unexplained,
+                name: "current",
+            }))
+            .collect();
+        let stand_in = stand_in_reason(&channels);
+        let partial = match &stand_in {
+            Some((why, k)) => {
+                let (names, steps): (Vec<&'static str>, Vec<f32>) = search
+                    .named()
+                    .map(|(e, s)| {
+                        let current = s.holdout_rmse_current.unwrap_or(f32::NAN);
+                        (e.name(), if *k == 0 { s.holdout_rmse } else { current })
+                    })
+                    .unzip();
+                stand_ins(&names, &steps, &channels[*k], why)
+            }
+            None => Vec::new(),
+        };
+        let named = stand_in.is_none();
+        let first = first.filter(|_| named);
+        let chosen = search.chosen().filter(|_| named);
         let verdict = Verdict {
             effect: first.map(|e| e.name()),
             holdout_rmse_before: Num(baseline.holdout_rmse),
@@ -269,21 +309,27 @@ impl DiagnoseReport {
                 base_params_shift: motor_shift(&baseline.fit.result.params, &s.fit.result.params),
             }),
             second: Second {
-                effect: search.chain.get(1).map(|(e, _)| e.name()),
-                fit: search.chain.get(1).map(|(e, s)| SecondFit {
-                    holdout_rmse_after: Num(s.holdout_rmse),
-                    train_rmse_after: Num(s.train_rmse),
-                    effect_params: values(&s.fit.result.params, e.params()),
-                }),
+                effect: search.chain.get(1).filter(|_| named).map(|(e, _)| e.name()),
+                fit: search
+                    .chain
+                    .get(1)
+                    .filter(|_| named)
+                    .map(|(e, s)| SecondFit {
+                        holdout_rmse_after: Num(s.holdout_rmse),
+                        train_rmse_after: Num(s.train_rmse),
+                        effect_params: values(&s.fit.result.params, e.params()),
+                    }),
             },
             effects: search
                 .named()
+                .filter(|_| named)
                 .map(|(e, s)| NamedEffect {
                     name: e.name(),
                     params: values(&s.fit.result.params, e.params()),
                     holdout_rmse_after: Num(s.holdout_rmse),
                 })
                 .collect(),
+            partial,
             params: reported_params(&after.fit.result, &after.fit.spec),
             repeatability_floor: repeatability.holdout_floor(),
             unexplained: remainder.is_some() || current.as_ref().is_some_and(|c| c.unexplained),
@@ -353,6 +399,18 @@ impl DiagnoseReport {
                         "then: {}: holdout rmse -> {:.4} rad/s\n",
                         then.name,
                         then.holdout_rmse_after.decimal()
+                    );
+                }
+            }
+            _ if !v.partial.is_empty() => {
+                s += "verdict: no cause named (the effects found only stand in for part of the misfit)\n";
+                for p in &v.partial {
+                    s += &format!(
+                        "partial stand-in: {}: removes {:.0} % of the held-out {} misfit above the floor; not named: {}\n",
+                        p.name,
+                        100.0 * p.share_of_excess.decimal(),
+                        p.channel,
+                        p.why
                     );
                 }
             }

@@ -59,6 +59,7 @@ fn report(second: Option<&'static str>) -> DiagnoseReport {
                     holdout_rmse_after: Num(after),
                 })
                 .collect(),
+            partial: vec![],
             params: ByParam(vec![]),
             repeatability_floor: None,
             unexplained: false,

@@ -8,14 +8,15 @@
 //! final model without it.
 
 use super::data::{Data, Scored};
+use super::effect_fit::{fit_effect, with_effect};
 use super::regimes::{self, WhereReport};
 use super::spectrum::{order_peak, OrderPeak};
 use super::verdict::{significant, Holdout};
-use crate::fit::{fit_from, fit_spec, refit_from, Fit, FitOptions};
-use anyhow::{anyhow, Result};
+use crate::fit::{fit_spec, refit_from, FitOptions};
+use anyhow::Result;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
-use motor_id_shared::{ModelParams, ParamId};
+use motor_id_shared::ModelParams;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
@@ -391,70 +392,6 @@ fn in_parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
         .into_iter()
         .map(|r| r.expect("every index was run"))
         .collect()
-}
-
-/// `spec` with `effect` free within bounds scaled to `base`, and the effect it extends with
-/// it (user bounds or fixes on their parameters are kept); for the tacho ripple the number of cycles is the order found in the
-/// residual, held fixed (the phase and amplitude are fitted).
-fn with_effect(
-    spec: &ProblemSpec,
-    effect: Effect,
-    base: &ModelParams,
-    scales: &Scales,
-    order: u32,
-) -> Result<ProblemSpec> {
-    let mut s = *spec;
-    s.base = *base;
-    let own = effect.bounds(base, scales);
-    let parents = effect.parent().map(|p| p.bounds(base, scales));
-    for (id, lo, hi) in own.into_iter().chain(parents.into_iter().flatten()) {
-        if id == ParamId::RippleCycles {
-            if spec.free[id.index()] {
-                continue;
-            }
-            s.fix(id, order as f32).map_err(|e| anyhow!("{e}"))?;
-            continue;
-        }
-        let user_fixed = !spec.free[id.index()] && spec.base.get(id) != 0.0;
-        if user_fixed || spec.free[id.index()] {
-            continue;
-        }
-        s.set_bounds(id, lo, hi)
-            .map_err(|e| anyhow!("{} bounds: {e}", effect.name()))?;
-        s.free(id);
-    }
-    Ok(s)
-}
-
-/// Fit `spec` (an effect added to the model in `spec.base`) in two stages: the effect's
-/// parameters alone with everything else held at `base` (a global search of one to three
-/// dimensions, started for the ripple from the order spectrum's amplitude and phase), then
-/// everything free from there by least squares (the start lies in the basin already).
-fn fit_effect(
-    data: &Data,
-    opts: &FitOptions,
-    spec: &ProblemSpec,
-    effect: Effect,
-    ripple: &OrderPeak,
-) -> Result<Fit> {
-    // The spec's base holds the model to add the effect to, and the effect's fixed values.
-    let mut start = spec.base;
-    if effect == Effect::TachoRipple {
-        let (lo, hi) = spec.bounds[ParamId::RippleAmp.index()];
-        start.set(ParamId::RippleAmp, (ripple.amp as f32).clamp(lo, hi));
-        start.set(ParamId::RipplePhase, ripple.phase as f32);
-    }
-    let mut alone = *spec;
-    alone.base = start;
-    let parent = effect.parent().map_or(&[][..], |p| p.params());
-    for id in ParamId::ALL {
-        let part = effect.params().contains(&id) || parent.contains(&id);
-        if !part && alone.free[id.index()] {
-            alone.free[id.index()] = false;
-        }
-    }
-    let first = fit_from(&data.train, opts, &alone, &start)?;
-    refit_from(&data.train, opts, spec, &first.result.params)
 }
 
 #[cfg(test)]
