@@ -87,6 +87,19 @@ pub fn fit(records: &[OwnedRecord], opts: &FitOptions, pipeline: Pipeline) -> Re
     run_fit(records, opts, &spec, &pipeline.config(opts.seed), None)
 }
 
+/// Identify from loaded records with the problem given on the command line and the default
+/// pipeline, without its escalation or the profile check: a quick look (does a corrected
+/// record fit to its noise? see [`crate::hints`]), not a report's fit.
+pub fn fit_quick(records: &[OwnedRecord], opts: &FitOptions) -> Result<Fit> {
+    let spec = problem(&opts.bounds, &opts.fix)?;
+    let cfg = IdentifyConfig {
+        escalation: Escalation::None,
+        profile_check: false,
+        ..IdentifyConfig::default_pipeline(opts.seed)
+    };
+    run_fit(records, opts, &spec, &cfg, None)
+}
+
 /// Identify `spec` from loaded records with the default pipeline and its escalation.
 pub fn fit_spec(records: &[OwnedRecord], opts: &FitOptions, spec: &ProblemSpec) -> Result<Fit> {
     run_fit(

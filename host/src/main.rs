@@ -8,6 +8,7 @@ mod comparison;
 mod csvio;
 mod fit;
 mod fit_plot;
+mod hints;
 mod interrupt;
 mod limits_args;
 mod output;

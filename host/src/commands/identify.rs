@@ -4,6 +4,7 @@
 use crate::csvio::{ReadOptions, RecordReader};
 use crate::fit::{fit, FitOptions, PipelineArg};
 use crate::fit_plot::plot_fit;
+use crate::hints::cheap_explanations;
 use crate::output::write_json;
 use crate::report::identify::IdentifyReport;
 use crate::report::summary::summary;
@@ -57,9 +58,20 @@ pub fn run(a: &IdentifyArgs) -> Result<()> {
     let f = fit(&records, &a.fit, pipeline)?;
     let samples: usize = records.iter().map(|r| r.len()).sum();
     print!("{}", summary(&f.result, &f.spec, samples, f.with_current));
+    // Before a misfit is left to an unmodelled effect: a sign or a unit that explains it.
+    let say = |msg: &str| {
+        if !a.fit.quiet {
+            eprintln!("{msg}");
+        }
+    };
+    let hints = cheap_explanations(&records, &a.fit, &f, &say)?;
+    for h in &hints {
+        println!("hint: {h}");
+    }
     if let Some(path) = &a.json {
         let names = records.iter().map(|r| r.name()).collect();
-        let report = IdentifyReport::new(&f.result, &f.spec, names, a.fit.seed, pipeline.name());
+        let report = IdentifyReport::new(&f.result, &f.spec, names, a.fit.seed, pipeline.name())
+            .with_hints(hints);
         write_json(path, &report)?;
     }
     if let Some(path) = &a.plot {

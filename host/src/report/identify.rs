@@ -47,6 +47,9 @@ pub struct IdentifyReport {
     pub seed: u64,
     /// Pipeline name.
     pub mode: &'static str,
+    /// Cheap explanations of an inadequate fit that a refit confirmed
+    /// ([`crate::hints`]); empty when the fit is adequate or none holds.
+    pub hints: Vec<String>,
 }
 
 /// Measured noise of the records.
@@ -264,6 +267,13 @@ impl IdentifyReport {
             records,
             seed,
             mode,
+            hints: Vec::new(),
         }
+    }
+
+    /// This report with the `hints` found.
+    pub fn with_hints(mut self, hints: Vec<String>) -> IdentifyReport {
+        self.hints = hints;
+        self
     }
 }
