@@ -162,6 +162,12 @@ fn bad_options_are_refused_with_one_line() {
             vec!["diagnose", "--train", ok, "--holdout", ok],
             "is the training record",
         ),
+        // The paper's FFO cannot stop before 301 evaluations: a budget below that was
+        // overspent 30 times over.
+        (
+            vec!["compare", ok, "--budget", "10"],
+            "below one iteration of the paper's FFO (301 evaluations",
+        ),
     ] {
         let err = run_err(&args);
         assert!(

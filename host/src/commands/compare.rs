@@ -11,6 +11,7 @@ use crate::report::SCHEMA_VERSION;
 use crate::spec::problem;
 use anyhow::{bail, Result};
 use clap::Args;
+use motor_id_shared::fit::identify::IdentifyConfig;
 use plotters::style::{RGBColor, BLUE, RED};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -73,8 +74,18 @@ fn median<T: Copy + PartialOrd>(mut x: Vec<T>) -> Option<T> {
 
 /// Run `compare`.
 pub fn run_compare(a: &CompareArgs) -> Result<()> {
-    if a.runs == 0 || a.budget < 10 {
-        bail!("--runs must be at least 1 and --budget at least 10");
+    if a.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    // The paper's FFO cannot stop within its first iteration: its population, both of the
+    // iteration's evaluations of it, and the final best (paper Eq. 8-16).
+    let n = IdentifyConfig::paper_faithful(a.fit.seed).ffo.population() as u32;
+    let least = 3 * n + 1;
+    if a.budget < least {
+        bail!(
+            "--budget {} is below one iteration of the paper's FFO ({least} evaluations: a population of {n}, evaluated twice per iteration, and the final best): give --budget {least} or more",
+            a.budget
+        );
     }
     let records = RecordReader::new(&a.read).read_all(&a.files)?;
     let spec = problem(&a.fit.bounds, &a.fit.fix)?;
