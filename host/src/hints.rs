@@ -1,6 +1,6 @@
 //! Cheap explanations of a large misfit, tested on the fit itself before it is blamed on
-//! an unmodelled effect: a record whose input never changes, a sign inverted, a unit
-//! scaled.
+//! an unmodelled effect: a record whose input never changes, a parameter held at a bound
+//! of the search box, a sign inverted, a unit scaled.
 //!
 //! A column read with the wrong sign or unit breaks paper Eq. 1-4's one constant `Kv`,
 //! which couples the back-EMF `Kv w` of the armature equation to the torque `Kv i` of the
@@ -17,6 +17,7 @@
 use crate::csvio::OwnedRecord;
 use crate::fit::{fit_quick, Fit, FitOptions};
 use crate::report::identify::FitQuality;
+use crate::report::summary::at_bound;
 use anyhow::Result;
 
 /// Largest RMSE over the noise of a corrected fit that is said to explain the misfit.
@@ -114,6 +115,23 @@ pub fn cheap_explanations(
             hints.push(format!(
                 "{}? Corrected, the fit is {after:.2} x its noise instead of {before:.1} x",
                 c.cause
+            ));
+        }
+    }
+    if !hints.is_empty() {
+        // A column corrected explains it: parameters driven to the box's edge by the wrong
+        // column say nothing more.
+        return Ok(hints);
+    }
+    // Else a free parameter the fit left at a bound of the box: the motor may lie beyond
+    // it.
+    for c in &given.result.identifiability.params {
+        let value = given.result.params.get(c.id);
+        if let Some(b) = at_bound(value, given.spec.bounds[c.id.index()]) {
+            hints.push(format!(
+                "{} sits at its bound {b}: the motor may lie outside the search box; widen --bounds {}=LO:HI",
+                c.id.name(),
+                c.id.name()
             ));
         }
     }

@@ -36,10 +36,12 @@ fn rewrite(src: &Path, dst: &Path, name: &str, f: impl Fn(f64) -> f64) {
 /// A record written wrongly: its file, the column changed, the change, the hint expected.
 type Case<'a> = (&'a str, &'a str, &'a dyn Fn(f64) -> f64, &'a str);
 
-/// The `hints` of `identify FILE --json`.
-fn hints(dir: &Path, file: &Path) -> Vec<String> {
+/// The `hints` of `identify FILE --json EXTRA`.
+fn hints(dir: &Path, file: &Path, extra: &[&str]) -> Vec<String> {
     let report = dir.join("r.json");
-    run_ok(&["identify", s(file), "-q", "--json", s(&report)]);
+    let mut args = vec!["identify", s(file), "-q", "--json", s(&report)];
+    args.extend_from_slice(extra);
+    run_ok(&args);
     json(&report)["hints"]
         .as_array()
         .expect("hints")
@@ -65,7 +67,15 @@ fn a_sign_or_a_unit_that_explains_the_misfit_is_named_and_a_good_record_gets_non
     );
     let good = dir.path().join("good.csv");
     csv::write(&r, &good, true);
-    assert_eq!(hints(dir.path(), &good), Vec::<String>::new());
+    assert_eq!(hints(dir.path(), &good, &[]), Vec::<String>::new());
+    // A search box that leaves the motor (Ra 1 ohm) out: the fit stops at the bound.
+    // (J, pulled with it, may reach its own.)
+    let found = hints(dir.path(), &good, &["--bounds", "ra=2:10"]);
+    assert!(found[0].starts_with("ra sits at its bound 2"), "{found:?}");
+    assert!(
+        found.iter().all(|h| h.contains("sits at its bound")),
+        "{found:?}"
+    );
     let rpm = 60.0 / std::f64::consts::TAU;
     let cases: [Case; 5] = [
         (
@@ -92,7 +102,7 @@ fn a_sign_or_a_unit_that_explains_the_misfit_is_named_and_a_good_record_gets_non
     for (file, column, f, expected) in cases {
         let path = dir.path().join(file);
         rewrite(&good, &path, column, f);
-        let found = hints(dir.path(), &path);
+        let found = hints(dir.path(), &path, &[]);
         assert_eq!(found.len(), 1, "{file}: {found:?}");
         assert!(found[0].contains(expected), "{file}: {found:?}");
     }

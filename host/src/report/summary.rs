@@ -124,7 +124,7 @@ pub fn summary(
 /// The bound `value` sits at, if any: within 0.1 % of the range of it (on a log scale when
 /// both bounds are positive, as the search runs). A fit that ends there was stopped by the
 /// bound, so the value is not a measurement.
-fn at_bound(value: f32, (lo, hi): (f32, f32)) -> Option<f32> {
+pub(crate) fn at_bound(value: f32, (lo, hi): (f32, f32)) -> Option<f32> {
     let near = |bound: f32| match lo > 0.0 && value > 0.0 {
         true => (value / bound).ln().abs() <= 1e-3 * (hi / lo).ln(),
         false => (value - bound).abs() <= 1e-3 * (hi - lo),
