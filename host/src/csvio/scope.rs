@@ -27,16 +27,53 @@ pub struct ScopeImport {
     pub step_at: f64,
 }
 
+/// The time base of a Rigol export (`X,CH1,Start,Increment` over `Sequence,Volt,T0,DT`):
+/// its first column counts samples, and sample `n` is at `T0 + n DT` seconds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct IndexedTime {
+    start: f64,
+    increment: f64,
+}
+
+impl IndexedTime {
+    /// From a header line and the line after it, when they are a Rigol export's.
+    fn of(header: &str, next: &str, sep: char) -> Option<IndexedTime> {
+        let fields = |l: &str| -> Vec<String> {
+            l.split(sep)
+                .map(|f| f.trim().trim_matches('"').to_string())
+                .collect()
+        };
+        let (h, n) = (fields(header), fields(next));
+        let at = |name: &str| h.iter().position(|f| f.eq_ignore_ascii_case(name));
+        let number = |k: usize| n.get(k)?.parse::<f64>().ok().filter(|x| x.is_finite());
+        if !h.first()?.eq_ignore_ascii_case("x") {
+            return None;
+        }
+        let (start, increment) = (number(at("start")?)?, number(at("increment")?)?);
+        (increment > 0.0).then_some(IndexedTime { start, increment })
+    }
+}
+
 /// Read a scope CSV: lines whose needed fields are not numbers (headers, units, settings)
-/// are skipped; the rest must be uniform in time.
+/// are skipped; the rest must be uniform in time. A Rigol export's first column counts
+/// samples: its time is then taken from the header's `Start` and `Increment`.
 pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
     let (mut semicolon, mut comma) = (false, false);
+    // The first two lines, for a Rigol export's header.
+    let mut head: Vec<String> = Vec::new();
     for_each_line(path, |_, line| {
         semicolon |= line.contains(';');
         comma |= line.contains(',');
+        if head.len() < 2 {
+            head.push(line.chars().take(200).collect());
+        }
         Ok(())
     })?;
     let sep = if semicolon && !comma { ';' } else { ',' };
+    let indexed = match head.as_slice() {
+        [h, n] if s.time_column == 0 => IndexedTime::of(h, n, sep),
+        _ => None,
+    };
     // The time and the tacho volts of a line, when both are finite numbers.
     let numeric = |line: &str| {
         let get = |c: usize| {
@@ -45,7 +82,11 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
                 .and_then(|f| f.trim().trim_matches('"').parse::<f64>().ok())
                 .filter(|x| x.is_finite())
         };
-        get(s.time_column).zip(get(s.channel))
+        let time = get(s.time_column).map(|t| match indexed {
+            Some(x) => x.start + t * x.increment,
+            None => t,
+        });
+        time.zip(get(s.channel))
     };
     let mut times = TimeSteps::default();
     let mut v = Vec::new();
@@ -169,5 +210,26 @@ mod tests {
         trace(9); // the 10th numeric line, line 13 of the file
         let err = format!("{:#}", import_scope(&path, &options()).unwrap_err());
         assert!(err.contains("not uniform at line 13"), "{err}");
+    }
+
+    /// A Rigol export: the first column counts samples, the time base is in the header.
+    /// Read as seconds, the index made a record of one sample per second.
+    #[test]
+    fn a_rigol_export_takes_its_time_from_start_and_increment() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("rigol.csv");
+        let mut text =
+            String::from("X,CH1,Start,Increment,\nSequence,Volt,-1.000000e-02,1.000000e-03\n");
+        for k in 0..20 {
+            text += &format!("{k},{:.2},\n", 0.1 * k as f64);
+        }
+        std::fs::write(&path, text).unwrap();
+        let rec = import_scope(&path, &options()).unwrap();
+        assert_eq!(rec.len(), 20);
+        assert!((rec.t0 + 0.01).abs() < 1e-12, "{}", rec.t0);
+        assert!((rec.dt - 0.001).abs() < 1e-9, "{}", rec.dt);
+        // The step at t = 0 is sample 10.
+        assert_eq!((rec.v[9], rec.v[10]), (0.0, 12.0));
+        assert_eq!(rec.omega[3], -(0.3f32 * 35.0));
     }
 }
