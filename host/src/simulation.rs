@@ -83,6 +83,9 @@ pub struct SimulateArgs {
     /// friction alone slows the shaft (the CSV gets a `bridge` column: 1 driven, 0 open).
     #[arg(long, value_name = "S")]
     pub coast: Option<f64>,
+    /// No message on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Build the simulated record described by `a`.

@@ -1,7 +1,7 @@
 //! simulate -> identify through the CLI contract: accuracy, identifiability, determinism,
 //! the paper-faithful mode.
 
-use motor_id_tests::{json, param, rel, run_ok, s, simulate, PAPER_START};
+use motor_id_tests::{json, param, rel, run, run_ok, s, simulate, PAPER_START};
 
 const MOTOR: [&str; 5] = ["ra", "la", "j", "b", "kv"];
 
@@ -426,4 +426,39 @@ fn a_decimated_record_identifies_the_same_motor() {
     let sigma = r["noise"]["sigma_omega"].as_f64().unwrap();
     assert!((sigma / (0.5 / 10f64.sqrt()) - 1.0).abs() < 0.05, "{sigma}");
     assert!(r["rmse_omega"].as_f64().unwrap() < 1.05 * sigma);
+}
+
+#[test]
+fn quiet_simulate_and_import_say_nothing_and_write_their_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("r.csv");
+    let out = run(&["simulate", "--out", s(&rec), "-q"]);
+    assert!(out.status.success());
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+    assert!(rec.exists());
+    let trace = dir.path().join("scope.csv");
+    let text: String = (0..20)
+        .map(|k| format!("{},{}\n", k as f64 * 1e-3, k))
+        .collect();
+    std::fs::write(&trace, text).unwrap();
+    let imported = dir.path().join("imported.csv");
+    let args = [
+        "import-scope",
+        s(&trace),
+        "--out",
+        s(&imported),
+        "--tacho-gain",
+        "35",
+    ];
+    let out = run(&[&args[..], &["--voltage", "12", "-q"]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+    assert!(imported.exists());
+    // Without -q, each says what it wrote.
+    let out = run(&["simulate", "--out", s(&rec)]);
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("wrote "));
 }

@@ -48,6 +48,7 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         load_torque: None,
         speed_only: false,
         coast: None,
+        quiet: true,
     };
     let rec = simulate(&sim)?;
     rec.write(&csv)?;

@@ -32,6 +32,9 @@ pub struct ScopeArgs {
     /// Zero-based column of the tacho channel.
     #[arg(long, default_value_t = 1)]
     pub channel: usize,
+    /// No message on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Run `import-scope`.
@@ -52,6 +55,9 @@ pub fn run(a: &ScopeArgs) -> Result<()> {
     };
     let rec = read_scope(&a.file, &s)?;
     rec.write(&a.out)?;
+    if a.quiet {
+        return Ok(());
+    }
     eprintln!(
         "wrote {} samples at {} s step to {}",
         rec.len(),

@@ -8,6 +8,9 @@ use anyhow::Result;
 pub fn run(a: &SimulateArgs) -> Result<()> {
     let rec = simulate(a)?;
     rec.write(&a.out)?;
+    if a.quiet {
+        return Ok(());
+    }
     eprintln!(
         "wrote {} samples ({} s at {} Hz) to {}",
         rec.len(),
