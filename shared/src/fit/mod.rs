@@ -11,6 +11,7 @@ pub mod identify;
 pub mod initial;
 pub mod linalg;
 pub mod objective;
+pub mod pipeline;
 pub mod profile;
 pub mod refine;
 pub mod score_blocks;
