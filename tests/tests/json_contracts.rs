@@ -1,6 +1,7 @@
 //! Every key a command writes in its JSON report is documented in docs/CONTRACTS.md, in
-//! that report's section (one home per contract: the docs cannot drift from the code
-//! without this test failing). Keys that are parameter names (`ra`, `tc`, ...) are
+//! that report's section, and every field a section's table documents is written (one home
+//! per contract: the docs cannot drift from the code either way without this test
+//! failing). Keys that are parameter names (`ra`, `tc`, ...) are
 //! documented once, in the parameter table.
 
 use motor_id_tests::{json, run, run_ok, s, simulate};
@@ -60,6 +61,20 @@ fn undocumented(v: &Value, heading: &str) -> Vec<String> {
 
 fn assert_documented(report: &Path, heading: &str) {
     let v = json(report);
+    if !heading.is_empty() {
+        // The reverse: every field the section documents is written (no stale rows).
+        let mut written = BTreeSet::new();
+        keys(&v, &mut written);
+        let stale: Vec<String> = documented_keys(heading)
+            .difference(&written)
+            .cloned()
+            .collect();
+        assert!(
+            stale.is_empty(),
+            "CONTRACTS' section {heading:?} documents fields {} does not write: {stale:?}",
+            report.display()
+        );
+    }
     assert!(
         v.as_object().is_some_and(|m| !m.is_empty()),
         "{}: no keys",
@@ -137,4 +152,45 @@ fn every_key_of_every_json_report_is_documented() {
 fn an_undocumented_key_is_caught() {
     let v: Value = serde_json::json!({"rmse_omega": 1, "zz_not_a_key": {"ra": 1}});
     assert_eq!(undocumented(&v, "## `identify` JSON"), ["zz_not_a_key"]);
+}
+
+/// The keys a CONTRACTS section documents: the first cell of each row of its `| field |`
+/// tables, as `` `a.b.c` ``, by its last segment (tables of values, such as the regimes,
+/// are not keys).
+fn documented_keys(heading: &str) -> BTreeSet<String> {
+    let text = contracts();
+    let start = text
+        .find(heading)
+        .unwrap_or_else(|| panic!("no section {heading}"));
+    let rest = &text[start + heading.len()..];
+    let section = &rest[..rest.find("\n## ").unwrap_or(rest.len())];
+    let mut out = BTreeSet::new();
+    let mut in_fields = false;
+    let mut previous_was_table = false;
+    for line in section.lines() {
+        let is_table = line.starts_with('|');
+        if is_table && !previous_was_table {
+            in_fields = line.starts_with("| field |");
+        }
+        previous_was_table = is_table;
+        let Some(cell) = line.strip_prefix("| `").filter(|_| in_fields) else {
+            continue;
+        };
+        let Some(end) = cell.find('`') else { continue };
+        if let Some(last) = cell[..end].rsplit('.').next() {
+            out.insert(last.to_string());
+        }
+    }
+    out
+}
+
+/// The reverse check itself: a documented field the report lacks is found.
+#[test]
+fn a_documented_field_no_report_writes_is_caught() {
+    let fields = documented_keys("## `identify` JSON");
+    assert!(
+        fields.contains("rmse_omega") && fields.contains("hints"),
+        "{fields:?}"
+    );
+    assert!(!fields.contains("high_speed"));
 }

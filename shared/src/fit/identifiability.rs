@@ -32,7 +32,8 @@
 use crate::capacity::MAX_FREE;
 use crate::error::Error;
 use crate::fit::linalg::symmetric_eigen;
-use crate::fit::objective::{Cost, NormalEquations, Objective};
+use crate::fit::normal_equations::NormalEquations;
+use crate::fit::objective::{Cost, Objective};
 use crate::fit::score_blocks::ScoreBlocks;
 use crate::fit::space::Space;
 use crate::model::params::ModelParams;

@@ -10,6 +10,7 @@ pub mod identifiability;
 pub mod identify;
 pub mod initial;
 pub mod linalg;
+pub mod normal_equations;
 pub mod objective;
 pub mod pipeline;
 pub mod profile;

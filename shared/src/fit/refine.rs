@@ -8,7 +8,8 @@
 
 use crate::capacity::MAX_FREE;
 use crate::fit::linalg::{cholesky_solve, Vector};
-use crate::fit::objective::{Cost, NormalEquations, Objective};
+use crate::fit::normal_equations::NormalEquations;
+use crate::fit::objective::{Cost, Objective};
 use crate::fit::space::Space;
 use core::ops::ControlFlow;
 
