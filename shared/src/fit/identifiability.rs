@@ -173,7 +173,8 @@ pub fn analyse(
     let mut ne = NormalEquations::EMPTY;
     let mut scores = ScoreBlocks::EMPTY;
     scores.set_dim(space.dim());
-    if !objective.normal_equations_and_scores(space, u, STEP, &mut ne, &mut scores) {
+    let summed = objective.normal_equations_sums(space, u, STEP, true, &mut ne, Some(&mut scores));
+    if summed.is_none() {
         return Err(Error::NoFiniteCandidate);
     }
     // The result is written by `interpret` straight into the caller's (no copy on this

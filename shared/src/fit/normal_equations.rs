@@ -61,20 +61,9 @@ impl Objective<'_, '_> {
     }
 
     /// [`Objective::normal_equations`], with the block scores of the residuals summed into
-    /// `scores` as well (for the identifiability analysis; see [`ScoreBlocks`]).
-    pub fn normal_equations_and_scores(
-        &self,
-        space: &Space,
-        u: &[f32],
-        h: f32,
-        out: &mut NormalEquations,
-        scores: &mut ScoreBlocks,
-    ) -> bool {
-        self.normal_equations_sums(space, u, h, true, out, Some(scores))
-            .is_some()
-    }
-
-    fn normal_equations_sums(
+    /// `scores` as well when given (for the identifiability analysis; see [`ScoreBlocks`]);
+    /// `None` where that returns false.
+    pub(crate) fn normal_equations_sums(
         &self,
         space: &Space,
         u: &[f32],
