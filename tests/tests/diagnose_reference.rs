@@ -182,3 +182,26 @@ fn a_drive_current_limit_outside_the_catalogue_gets_no_name() {
         }
     }
 }
+
+#[test]
+fn a_tacho_ripple_does_not_inflate_the_noise_floor() {
+    // 2.7 % ripple at 8 per revolution: at the top speed 55 Hz, 0.27 cycles per sample,
+    // where the noise estimate cannot tell a ripple from noise. The floor is the white noise
+    // (0.2 rad/s), which the held-out records' ripple, subtracted at the order the
+    // residual shows, no longer hides.
+    let dir = tempfile::tempdir().unwrap();
+    let ripple = Effects {
+        ripple_amp: 0.027,
+        ripple_cycles: 8.0,
+        ripple_phase: 0.3,
+        ..Effects::default()
+    };
+    let r = diagnose(dir.path(), ripple, SpeedSensor::Tacho, &[]);
+    let noise = r["verdict"]["holdout_noise"].as_f64().unwrap();
+    eprintln!("held-out noise {noise} against 0.2");
+    assert!(
+        (noise / 0.2 - 1.0).abs() <= 0.1,
+        "{noise}: {}",
+        r["verdict"]
+    );
+}
