@@ -10,7 +10,7 @@ use crate::fit::identifiability::{analyse, Identifiability};
 use crate::fit::initial::start;
 use crate::fit::objective::{Cost, Objective};
 pub use crate::fit::pipeline::{Escalation, IdentifyConfig, Pipeline, SearchWhen};
-use crate::fit::profile;
+use crate::fit::profile_check;
 use crate::fit::refine::levenberg_marquardt;
 use crate::fit::space::{ProblemSpec, Space};
 use crate::model::params::ModelParams;
@@ -33,7 +33,7 @@ pub enum Stage {
     Search,
     /// Levenberg-Marquardt iterations.
     Refine,
-    /// The profile check of the uncertainty ([`crate::fit::profile`]): its least-squares
+    /// The profile check of the uncertainty ([`crate::fit::profile_check`]): its least-squares
     /// iterations, after the fit.
     Check,
 }
@@ -143,13 +143,13 @@ pub fn identify_from(
     // stopped the fit, it leaves nothing pinned.
     if let (Some(lm), true, Ok(r)) = (&cfg.refine, cfg.profile_check, &mut result) {
         if !r.completed {
-            profile::unchecked(&mut r.identifiability);
-        } else if profile::applies(&r.identifiability) {
-            let iterations = profile::runs(&r.identifiability) * lm.max_iterations;
+            profile_check::unchecked(&mut r.identifiability);
+        } else if profile_check::applies(&r.identifiability) {
+            let iterations = profile_check::runs(&r.identifiability) * lm.max_iterations;
             let before = r.evaluations + r.identifiability.evaluations;
             let best = r.cost.fitness();
             let mut iteration = 0;
-            let checked = profile::widen(
+            let checked = profile_check::widen(
                 &mut r.identifiability,
                 &objective,
                 &space,

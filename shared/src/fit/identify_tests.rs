@@ -150,7 +150,7 @@ fn parameters_pinned_from_speed_alone_lie_within_three_deviations() {
     // Speed only, the equal-fit valley bends: the local analysis alone called 19
     // parameters of these motors pinned, 6 of them more than 3 deviations off (Kv 0.2005
     // +- 0.0007 against a truth of 0.2111, say); the profile check and the valley walk
-    // (fit::profile) widen or unpin them.
+    // (fit::profile_check) widen or unpin them.
     let (pinned, within) = coverage(400, false);
     assert!(pinned > 0);
     assert_eq!(within, pinned, "{within} of {pinned} within 3 std");

@@ -13,7 +13,7 @@ pub mod linalg;
 pub mod normal_equations;
 pub mod objective;
 pub mod pipeline;
-pub mod profile;
+pub mod profile_check;
 pub mod refine;
 pub mod score_blocks;
 pub mod space;

@@ -64,7 +64,7 @@ pub struct IdentifyConfig {
     /// ([`identify_from`]).
     pub escalation: Escalation,
     /// Check the local uncertainty along the valley where the fit has a flat direction
-    /// ([`crate::fit::profile`]); off for fits whose uncertainty nobody reads (the
+    /// ([`crate::fit::profile_check`]); off for fits whose uncertainty nobody reads (the
     /// diagnosis' candidate effects), which saves its least-squares refits.
     pub profile_check: bool,
 }

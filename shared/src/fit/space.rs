@@ -183,7 +183,7 @@ impl Space {
         })
     }
 
-    /// The space of a profile ([`crate::fit::profile`]): `id` fixed at `value` (within its
+    /// The space of a profile ([`crate::fit::profile_check`]): `id` fixed at `value` (within its
     /// physical range, checked as by [`ProblemSpec::fix`]), the other free parameters as here,
     /// with their bounds and scales, every fixed one as in `at`.
     pub fn fixing(&self, at: &ModelParams, id: ParamId, value: f32) -> Result<Space, Error> {
