@@ -8,7 +8,8 @@
 //! `cargo run --release -p motor-id-tests --example blind_check -- [SEEDS] [RATES] [CASES]`
 //! e.g. `-- 8 2000,5000,10000 all` (the defaults); CASES is `all` or names joined by `,`
 //! (`null`, `static`, `asymmetric`, `deadtime`, `offset`, the withheld `limit` and
-//! `cogging`, pairs as `static+offset` or `static+limit`).
+//! `cogging`, a `delay` of the speed reading of 0.5-1 sample, pairs as `static+offset` or
+//! `static+limit`).
 //! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
 //! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`.
 
@@ -31,6 +32,9 @@ fn main() {
         cases.push(vec![w]);
         cases.extend(SINGLES.iter().map(|x| vec![*x, w]));
     }
+    // A speed reading delayed by half a sample to one, alone and beside each entry.
+    cases.push(vec!["delay"]);
+    cases.extend(SINGLES.iter().map(|x| vec![*x, "delay"]));
     if let Some(pick) = args.get(2).filter(|a| *a != "all") {
         let wanted: Vec<&str> = pick.split(',').collect();
         cases.retain(|c| wanted.contains(&label(c).as_str()));

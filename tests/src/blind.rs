@@ -35,6 +35,7 @@ pub fn entry(effect: &str) -> Option<&'static str> {
         "deadtime" => Some("bridge_deadtime"),
         "offset" => Some("current_offset"),
         "limit" | "cogging" => None,
+        "delay" => Some("sensor_delay"),
         other => panic!("unknown effect {other}"),
     }
 }
@@ -56,8 +57,9 @@ fn motor(g: &mut Gaussian) -> Motor {
 /// 2-5 % over 2-10 % of the top speed, an asymmetry of a third to two thirds of the Coulomb
 /// torque, a dead-time error of 2-4 % of the supply over 2-5 % of the stall current, a
 /// current offset of 1-3 % of the stall current (either sign), a drive's current limit at
-/// 35-40 % of the stall current, cogging of 5 % of the stall torque at 12 per revolution.
-fn effects(names: &[&str], m: &Motor, g: &mut Gaussian) -> Effects {
+/// 35-40 % of the stall current, cogging of 5 % of the stall torque at 12 per revolution, a
+/// speed sensor's delay of half a sample to one.
+fn effects(names: &[&str], m: &Motor, rate: f64, g: &mut Gaussian) -> Effects {
     let stall_torque = VOLTS / m.ra * m.kv;
     let stall_current = VOLTS / m.ra;
     let top = m.steady_speed(VOLTS);
@@ -86,6 +88,7 @@ fn effects(names: &[&str], m: &Motor, g: &mut Gaussian) -> Effects {
                 e.io = sign * u(0.01, 0.03) * stall_current;
             }
             "limit" => e.imax = u(0.35, 0.4) * stall_current,
+            "delay" => e.td = u(0.5, 1.0) / rate,
             "cogging" => {
                 e.cog_amp = 0.05 * stall_torque;
                 e.cog_cycles = 12.0;
@@ -118,7 +121,7 @@ pub struct Outcome {
 pub fn check(dir: &Path, names: &[&str], rate: f64, seed: u64) -> Outcome {
     let mut g = Gaussian::new(seed * 7919 + rate as u64);
     let m = motor(&mut g);
-    let e = effects(names, &m, &mut g);
+    let e = effects(names, &m, rate, &mut g);
     // Five of the slowest time constant per record (J Ra / (Ra B + Kv^2)), at least 1 s.
     let tau = m.j * m.ra / (m.ra * m.b + m.kv * m.kv);
     let duration = (5.0 * tau).max(1.0);
