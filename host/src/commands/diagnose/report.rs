@@ -5,7 +5,7 @@ use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
 use super::naming::{stand_in_reason, stand_ins, Channel, PartialStandIn};
 use super::regimes::WhereReport;
-use super::remainder::{floor, unexplained, Remainder, UNEXPLAINED_RATIO};
+use super::remainder::{floor, unexplained, Remainder};
 use super::repeatability::Repeatability;
 use super::search::Search;
 use crate::report::identify::reported_params;
@@ -358,106 +358,6 @@ impl DiagnoseReport {
             coverage_gaps: coverage::gaps(&data.train, &data.holdout),
             repeatability,
         }
-    }
-
-    /// The text summary printed on stdout.
-    pub fn text(&self) -> String {
-        let mut s = String::new();
-        s += &format!(
-            "baseline: train rmse {:.4}, holdout rmse {:.4} rad/s (holdout noise {:.4})\n",
-            self.baseline.train_rmse.decimal(),
-            self.baseline.holdout_rmse.decimal(),
-            self.verdict.holdout_noise.decimal()
-        );
-        s += "where:\n";
-        for line in &self.where_.summary {
-            s += &format!("  {line}\n");
-        }
-        s += "effects, best held-out misfit first:\n";
-        for e in &self.effects {
-            s += &format!(
-                "  {:<20} train {:.4}  holdout {:.4}{}\n",
-                e.name,
-                e.train_rmse.decimal(),
-                e.holdout_rmse.decimal(),
-                if e.significant { "  significant" } else { "" }
-            );
-        }
-        let v = &self.verdict;
-        match (v.effect, &v.chosen) {
-            (Some(name), Some(chosen)) => {
-                let params = serde_json::to_string(&chosen.effect_params)
-                    .expect("parameters always serialise");
-                s += &format!(
-                    "verdict: {name}: holdout rmse {:.4} -> {:.4} rad/s ({:.0} % of the misfit above noise removed), params {params}\n",
-                    v.holdout_rmse_before.decimal(),
-                    v.holdout_rmse_after.decimal(),
-                    100.0 * v.share_of_misfit_removed.decimal(),
-                );
-                for then in v.effects.iter().skip(1) {
-                    s += &format!(
-                        "then: {}: holdout rmse -> {:.4} rad/s\n",
-                        then.name,
-                        then.holdout_rmse_after.decimal()
-                    );
-                }
-            }
-            _ if !v.partial.is_empty() => {
-                s += "verdict: no cause named (the effects found only stand in for part of the misfit)\n";
-                for p in &v.partial {
-                    s += &format!(
-                        "partial stand-in: {}: removes {:.0} % of the held-out {} misfit above the floor; not named: {}\n",
-                        p.name,
-                        100.0 * p.share_of_excess.decimal(),
-                        p.channel,
-                        p.why
-                    );
-                }
-            }
-            _ => s +=
-                "verdict: null (no effect of the catalogue improves the held-out fit significantly)\n",
-        }
-        match &v.remainder {
-            Some(r) => {
-                for line in &r.summary {
-                    s += &format!("unexplained: {line}\n");
-                }
-            }
-            None => {
-                let (floor_rmse, kind) = floor(
-                    v.holdout_noise.0,
-                    v.repeatability_floor.as_ref().map(|f| f.0),
-                );
-                s += &format!(
-                    "explained: the held-out misfit ({:.4} rad/s) is within {UNEXPLAINED_RATIO} x the {kind} floor ({floor_rmse:.4} rad/s)\n",
-                    v.holdout_rmse_after.decimal()
-                );
-            }
-        }
-        if let Some(c) = &v.current {
-            s += &format!(
-                "current: holdout rmse {:.4} -> {:.4} A (noise {:.4} A){}\n",
-                c.holdout_rmse_before.decimal(),
-                c.holdout_rmse_after.decimal(),
-                c.holdout_noise.decimal(),
-                if c.unexplained {
-                    ": significantly above its noise, not explained by the catalogue"
-                } else {
-                    ""
-                }
-            );
-        }
-        for line in self.repeatability.summary() {
-            s += &format!("{line}\n");
-        }
-        for line in coverage::summary(&self.coverage_gaps) {
-            s += &format!("coverage: {line}\n");
-        }
-        for c in &self.cannot_support {
-            s += &format!("note: {c}\n");
-        }
-
-        s
     }
 }
 
