@@ -6,8 +6,8 @@
 //! and [`spectrum`]; whether an effect is real: [`verdict`]), [`coverage`] names the regimes
 //! only the held-out records visit, [`repeatability`] measures how far repeat runs differ
 //! (what no model can remove), [`naming`] decides whether the effects found may be named
-//! as causes or only stand in for part of the misfit, [`report`] says what was found (its text: [`report_text`]),
-//! [`plot`] draws it.
+//! as causes or only stand in for part of the misfit, [`report`] says what was found (its
+//! text: [`report_text`]), [`plot`] draws it.
 
 mod coverage;
 mod data;
