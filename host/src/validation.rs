@@ -106,6 +106,30 @@ pub fn read_params(path: &Path) -> Result<ModelParams> {
     Ok(p)
 }
 
+/// The parameters of the JSON report at `path` that its identification did not pin: an
+/// `identify` report's `identifiability.not_pinned`, a `board` report's parameters whose
+/// `pinned` is false; empty for a report that says nothing of it (`diagnose`).
+pub fn unpinned_params(path: &Path) -> Result<Vec<ParamId>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let json: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| anyhow!("{}: not a JSON report ({e})", path.display()))?;
+    let ident = &json["identifiability"];
+    let names: Vec<&str> = match (
+        ident["not_pinned"].as_array(),
+        ident["parameters"].as_object(),
+    ) {
+        (Some(list), _) => list.iter().filter_map(|n| n.as_str()).collect(),
+        (None, Some(params)) => params
+            .iter()
+            .filter(|(_, e)| e["pinned"] == false)
+            .map(|(n, _)| n.as_str())
+            .collect(),
+        _ => Vec::new(),
+    };
+    Ok(names.into_iter().filter_map(ParamId::from_name).collect())
+}
+
 /// What the parameters predict for one record: its speed, and its current where the check
 /// judges it.
 pub struct Prediction {

@@ -462,3 +462,30 @@ fn quiet_simulate_and_import_say_nothing_and_write_their_file() {
     let out = run(&["simulate", "--out", s(&rec)]);
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("wrote "));
 }
+
+#[test]
+fn tune_warns_when_its_gains_rest_on_parameters_the_data_did_not_pin() {
+    // The same record fitted with its current pins all five; from speed alone it pins
+    // three combinations and no parameter: every gain then rests on guesses.
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("r.csv");
+    let noise = ["--noise-omega", "0.5", "--noise-current", "0.02"];
+    simulate(&rec, &[&["--profile", "steps"], &noise[..]].concat());
+    for (extra, expect) in [(None, 0), (Some("--speed-only"), 2)] {
+        let params = dir.path().join("p.json");
+        let mut args = vec!["identify", s(&rec), "-q", "--json", s(&params)];
+        args.extend(extra);
+        run_ok(&args);
+        let out = dir.path().join("t.json");
+        let tuned = run(&["tune", "--params", s(&params), "--json", s(&out)]);
+        assert!(tuned.status.success());
+        let stderr = String::from_utf8_lossy(&tuned.stderr);
+        let caveats = json(&out)["caveats"].as_array().unwrap().len();
+        assert_eq!(caveats, expect, "{extra:?}: {stderr}");
+        assert_eq!(stderr.matches("warning: ").count(), expect, "{stderr}");
+        if expect > 0 {
+            assert!(stderr.contains("scale with la and ra"), "{stderr}");
+            assert!(stderr.contains("scale with j and kv"), "{stderr}");
+        }
+    }
+}

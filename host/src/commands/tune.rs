@@ -6,7 +6,7 @@ use crate::output::write_json;
 use crate::plot::{draw, Panel, Series};
 use crate::report::{ByParam, Num, SCHEMA_VERSION};
 use crate::tuning::{gains, step, Design, Gains, Loop, StepResponse};
-use crate::validation::read_params;
+use crate::validation::{read_params, unpinned_params};
 use anyhow::Result;
 use clap::Args;
 use motor_id_shared::ParamId;
@@ -62,6 +62,36 @@ struct TuneReport {
     current_step: StepResponse,
     /// The speed loop's step response on the model.
     speed_step: StepResponse,
+    /// Gains that rest on a parameter the report's data did not pin, in words (empty when
+    /// every parameter they use is pinned, or the report does not say).
+    caveats: Vec<String>,
+}
+
+/// The parameters each loop's gains are made of: the current loop's `Kp = La wc`,
+/// `Ki = Ra wc`; the speed loop's `Kp = J / (a Kv T)`.
+const DEPENDS_ON: [(&str, [ParamId; 2]); 2] = [
+    ("current loop", [ParamId::La, ParamId::Ra]),
+    ("speed loop", [ParamId::J, ParamId::Kv]),
+];
+
+/// What the gains of each loop rest on that the data did not pin.
+fn caveats(unpinned: &[ParamId]) -> Vec<String> {
+    DEPENDS_ON
+        .iter()
+        .filter_map(|(name, ids)| {
+            let loose: Vec<&str> = ids
+                .iter()
+                .filter(|id| unpinned.contains(id))
+                .map(|id| id.name())
+                .collect();
+            (!loose.is_empty()).then(|| {
+                format!(
+                    "the {name}'s gains scale with {}, which the report's data did not pin: they are no better than that value",
+                    loose.join(" and ")
+                )
+            })
+        })
+        .collect()
 }
 
 const RULES: &str = "current loop: PI zero on the armature pole (Ti = La/Ra, Kp = La wc); \
@@ -70,6 +100,7 @@ const RULES: &str = "current loop: PI zero on the armature pole (Ti = La/Ra, Kp 
 /// Run `tune`.
 pub fn run(a: &TuneArgs) -> Result<()> {
     let p = read_params(&a.params)?;
+    let caveats = caveats(&unpinned_params(&a.params)?);
     let design = Design {
         current_bandwidth_hz: f64::from(a.current_bandwidth),
         phase_margin_deg: f64::from(a.phase_margin),
@@ -94,7 +125,11 @@ pub fn run(a: &TuneArgs) -> Result<()> {
         gains: g,
         current_step,
         speed_step,
+        caveats,
     };
+    for c in &report.caveats {
+        eprintln!("warning: {c}");
+    }
     println!("{RULES}");
     for (name, pi, unit, s) in [
         (
