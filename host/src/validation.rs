@@ -58,18 +58,7 @@ pub struct Misfit {
 
 /// The model of a report: the parameters under `verdict.params` (diagnose) or `params`.
 pub fn read_params(path: &Path) -> Result<ModelParams> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let json: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| anyhow!("{}: not a JSON report ({e})", path.display()))?;
-    if let Some(version) = json["schema_version"].as_u64() {
-        if version > u64::from(SCHEMA_VERSION) {
-            bail!(
-                "{}: schema_version {version} is newer than this motor-id reads ({SCHEMA_VERSION}): update motor-id",
-                path.display()
-            );
-        }
-    }
+    let json = read_report(path)?;
     let params = json["verdict"]["params"]
         .as_object()
         .or_else(|| json["params"].as_object())
@@ -106,14 +95,29 @@ pub fn read_params(path: &Path) -> Result<ModelParams> {
     Ok(p)
 }
 
-/// The parameters of the JSON report at `path` that its identification did not pin: an
-/// `identify` report's `identifiability.not_pinned`, a `board` report's parameters whose
-/// `pinned` is false; empty for a report that says nothing of it (`diagnose`).
-pub fn unpinned_params(path: &Path) -> Result<Vec<ParamId>> {
+/// The JSON report at `path`, refused when it is not JSON or of a newer schema than this
+/// motor-id reads.
+fn read_report(path: &Path) -> Result<serde_json::Value> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let json: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| anyhow!("{}: not a JSON report ({e})", path.display()))?;
+    if let Some(version) = json["schema_version"].as_u64() {
+        if version > u64::from(SCHEMA_VERSION) {
+            bail!(
+                "{}: schema_version {version} is newer than this motor-id reads ({SCHEMA_VERSION}): update motor-id",
+                path.display()
+            );
+        }
+    }
+    Ok(json)
+}
+
+/// The parameters of the JSON report at `path` that its identification did not pin: an
+/// `identify` report's `identifiability.not_pinned`, a `board` report's parameters whose
+/// `pinned` is false; empty for a report that says nothing of it (`diagnose`).
+pub fn unpinned_params(path: &Path) -> Result<Vec<ParamId>> {
+    let json = read_report(path)?;
     let ident = &json["identifiability"];
     let names: Vec<&str> = match (
         ident["not_pinned"].as_array(),
