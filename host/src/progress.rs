@@ -76,6 +76,26 @@ impl BarState {
     }
 }
 
+/// Files from this size on show their reading's progress [bytes]: 10 M rows of a record
+/// CSV (some 400 MB) take minutes to read.
+pub const READ_PROGRESS_BYTES: u64 = 32 << 20;
+
+/// A bar of the bytes of `file` read (`len` in all), on stderr; hidden when `quiet` or
+/// when the file is smaller than [`READ_PROGRESS_BYTES`].
+pub fn read_progress(file: &str, len: u64, quiet: bool) -> ProgressBar {
+    if quiet || len < READ_PROGRESS_BYTES {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("reading {prefix} [{bar:30}] {bytes}/{total_bytes}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(file.to_string());
+    bar
+}
+
 /// A progress bar fed by the identification's progress callback.
 pub struct FitProgress {
     bar: ProgressBar,

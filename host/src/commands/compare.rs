@@ -87,7 +87,9 @@ pub fn run_compare(a: &CompareArgs) -> Result<()> {
             a.budget
         );
     }
-    let records = RecordReader::new(&a.read).read_all(&a.files)?;
+    let records = RecordReader::new(&a.read)
+        .quiet(a.fit.quiet)
+        .read_all(&a.files)?;
     let spec = problem(&a.fit.bounds, &a.fit.fix)?;
     let with_current = !a.fit.speed_only && records.iter().all(|r| r.current.is_some());
     let mut all: Vec<(Optimiser, Vec<Run>)> = Vec::new();

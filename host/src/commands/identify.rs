@@ -53,7 +53,9 @@ impl IdentifyArgs {
 
 /// Run `identify`.
 pub fn run(a: &IdentifyArgs) -> Result<()> {
-    let records = RecordReader::new(&a.read).read_all(&a.files)?;
+    let records = RecordReader::new(&a.read)
+        .quiet(a.fit.quiet)
+        .read_all(&a.files)?;
     let pipeline = a.pipeline();
     let f = fit(&records, &a.fit, pipeline)?;
     let samples: usize = records.iter().map(|r| r.len()).sum();

@@ -38,7 +38,9 @@ pub struct ValidateArgs {
 /// Run `validate`.
 pub fn run(a: &ValidateArgs) -> Result<()> {
     let p = read_params(&a.params)?;
-    let records = RecordReader::new(&a.read).read_all(&a.files)?;
+    let records = RecordReader::new(&a.read)
+        .quiet(a.quiet)
+        .read_all(&a.files)?;
     let (report, predicted) = check(&p, &records, a.speed_only)?;
     print!("{}", report.text());
     if let Some(path) = &a.json {

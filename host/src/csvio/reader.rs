@@ -46,6 +46,8 @@ pub struct RecordReader {
     options: ReadOptions,
     /// Samples of the records read so far.
     held: u64,
+    /// No progress bar while a large file is read.
+    quiet: bool,
 }
 
 impl RecordReader {
@@ -54,7 +56,15 @@ impl RecordReader {
         RecordReader {
             options: options.clone(),
             held: 0,
+            quiet: false,
         }
+    }
+
+    /// This reader, showing no progress when `quiet` (a large file's reading shows its bytes
+    /// on stderr otherwise, [`crate::progress::read_progress`]).
+    pub fn quiet(mut self, quiet: bool) -> RecordReader {
+        self.quiet = quiet;
+        self
     }
 
     /// Read and validate a record CSV (errors name the file).
@@ -96,7 +106,15 @@ impl RecordReader {
         let mut bridge = BridgeCheck::default();
         let mut turned = false;
         let mut n = 0;
+        let size = std::fs::metadata(path).map_or(0, |m| m.len());
+        let name = path
+            .file_name()
+            .map_or(String::new(), |f| f.to_string_lossy().to_string());
+        let bar = crate::progress::read_progress(&name, size, self.quiet);
         while let Some(row) = rows.next_row()? {
+            if n % 65_536 == 0 {
+                bar.set_position(rows.bytes_read());
+            }
             times.push(row.t);
             bridge.push(n, row.driven, row.line);
             turned |= row.omega != 0.0;
@@ -106,6 +124,7 @@ impl RecordReader {
                 return Err(self.too_long(&mut rows, n as u64, &samples));
             }
         }
+        bar.finish_and_clear();
         if n == 0 {
             bail!("no data rows");
         }

@@ -131,6 +131,11 @@ impl Rows {
         })
     }
 
+    /// Bytes of the file read so far (up to the last row returned).
+    pub fn bytes_read(&self) -> u64 {
+        self.record.position().map_or(0, |p| p.byte())
+    }
+
     /// The next data row, `None` at the end of the file.
     pub fn next_row(&mut self) -> Result<Option<Row>> {
         // The line of a row the reader does not place: the header is line 1.

@@ -75,7 +75,7 @@ fn effect_name() -> impl TypedValueParser<Value = Effect> {
 
 /// Run `diagnose`.
 pub fn run(a: &DiagnoseArgs) -> Result<()> {
-    let mut reader = RecordReader::new(&a.read);
+    let mut reader = RecordReader::new(&a.read).quiet(a.fit.quiet);
     let train = reader.read_all(&a.train)?;
     let holdout = reader.read_all(&a.holdout)?;
     // Judging on a record the fit saw says nothing about what it never saw.
