@@ -25,8 +25,10 @@ use crate::fit::sums::{triangle_index, TRIANGLE};
 /// relative standard deviation is about `sqrt(2 / blocks)`, a quarter of a variance for the
 /// board's two records), few enough that a block spans the records' slow correlations. On
 /// the commissioning benchmark's first 200 motors, the pinned estimates within 3 reported
-/// deviations: 92.0 % with 32 blocks, 94.7 % with 16 (with 8, two records have too few
-/// blocks for the estimate: 86.4 %, the white-noise deviations').
+/// deviations: 92.0 % with 32 blocks, 94.7 % with 16, 95.6 % with 12 (with 8, two records
+/// have too few blocks for the estimate: 86.4 %, the white-noise deviations'). Not 12: one
+/// record fitted for five parameters would then have too few blocks (12, not more than
+/// twice the 6 lost), and the host's commonest fit would fall back to white noise.
 pub const BLOCKS_PER_RECORD: usize = 16;
 
 /// Streaming sums of the block scores of a fit's records.
