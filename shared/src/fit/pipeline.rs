@@ -61,7 +61,7 @@ pub struct IdentifyConfig {
     /// When the FFO runs.
     pub search: SearchWhen,
     /// The wider searches a fit that stays above the noise floor escalates to
-    /// ([`identify_from`]).
+    /// ([`identify_from`](crate::fit::identify::identify_from)).
     pub escalation: Escalation,
     /// Check the local uncertainty along the valley where the fit has a flat direction
     /// ([`crate::fit::profile_check`]); off for fits whose uncertainty nobody reads (the
@@ -69,7 +69,7 @@ pub struct IdentifyConfig {
     pub profile_check: bool,
 }
 
-/// The wider searches of [`identify_from`], for a fit that stays above the noise floor: a
+/// The wider searches of [`identify_from`](crate::fit::identify::identify_from), for a fit that stays above the noise floor: a
 /// stuck search is not yet a model that misses something.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Escalation {
@@ -85,7 +85,7 @@ pub enum Escalation {
     Host,
 }
 
-/// When [`identify_from`] runs its global search (the FFO).
+/// When [`identify_from`](crate::fit::identify::identify_from) runs its global search (the FFO).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SearchWhen {
     /// Always, seeded with the start (the paper's FFO).
