@@ -1,11 +1,12 @@
-//! The fuzz harness of motor-id. `cargo fuzz` needs a nightly toolchain, so the four fuzz
+//! The fuzz harness of motor-id. `cargo fuzz` needs a nightly toolchain, so the five fuzz
 //! targets are property tests (proptest) that `cargo test` runs on stable:
 //!
 //! | target | test module | what it checks |
 //! |---|---|---|
 //! | `frame` | `shared/src/wire/frame_fuzz.rs` | the frame decoder on arbitrary bytes, on frames with a valid CRC around arbitrary bodies, and on frames among garbage |
 //! | `service` | `shared/src/device/service_fuzz.rs` | the board's request handler fed arbitrary message sequences |
-//! | `csv` | `host/src/csvio_fuzz.rs` | the record CSV reader on arbitrary and mutated text |
+//! | `csv` | `host/src/csvio/fuzz.rs` | the record CSV reader on arbitrary and mutated text |
+//! | `report` | `host/src/validation_fuzz.rs` | the reader of a JSON report's parameters (`--params`) and of what it did not pin |
 //! | `spec` | `host/src/spec_fuzz.rs` | the `--motor`, `--effect`, `--bounds` and `--fix` parsers |
 //!
 //! This crate holds what they share: the budget ([`check`]), the seed corpus
@@ -264,7 +265,7 @@ mod tests {
 
     #[test]
     fn every_target_has_a_seed_corpus() {
-        for target in ["frame", "service", "csv", "spec"] {
+        for target in ["frame", "service", "csv", "spec", "report"] {
             assert!(!corpus(target).is_empty(), "{target}");
         }
     }

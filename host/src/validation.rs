@@ -311,6 +311,10 @@ fn rows_of<'a>(
 }
 
 #[cfg(test)]
+#[path = "validation_fuzz.rs"]
+mod fuzz;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
