@@ -11,6 +11,8 @@ use crate::fit::initial::start;
 use crate::fit::objective::{Cost, Objective};
 pub use crate::fit::pipeline::{Escalation, IdentifyConfig, Pipeline, SearchWhen};
 use crate::fit::profile_check;
+use crate::fit::progress::push_trace;
+pub use crate::fit::progress::{Progress, Stage, TracePoint};
 use crate::fit::refine::levenberg_marquardt;
 use crate::fit::space::{ProblemSpec, Space};
 use crate::model::params::ModelParams;
@@ -24,43 +26,6 @@ type RefineStarts = heapless::Vec<[f32; MAX_FREE], { MAX_RESTARTS + 1 }>;
 /// A refinement that ends above this multiple of the measured noise is restarted from the
 /// next best FFO member, while restarts remain.
 const NOISE_FLOOR_FACTOR: f32 = 1.05;
-
-/// Which stage is running.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Stage {
-    /// FFO iterations.
-    Search,
-    /// Levenberg-Marquardt iterations.
-    Refine,
-    /// The profile check of the uncertainty ([`crate::fit::profile_check`]): its least-squares
-    /// iterations, after the fit.
-    Check,
-}
-
-/// Progress report, after every FFO or refinement iteration.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Progress {
-    /// Stage.
-    pub stage: Stage,
-    /// Iteration within the stage.
-    pub iteration: u32,
-    /// Iterations the stage will run at most.
-    pub iterations: u32,
-    /// Evaluations spent so far in total.
-    pub evaluations: u32,
-    /// Best fitness so far (RMSE of speed for speed-only records).
-    pub best: f32,
-}
-
-/// One point of the convergence trace (paper's Fig. 10).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TracePoint {
-    /// Evaluations spent.
-    pub evaluations: u32,
-    /// Best fitness then.
-    pub best: f32,
-}
 
 /// Outcome of an identification.
 #[derive(Clone, Debug, PartialEq)]
@@ -85,15 +50,6 @@ pub struct Identification {
     pub completed: bool,
     /// Wider searches of the escalation run after the pipeline's own.
     pub widened: u32,
-}
-
-fn push_trace(trace: &mut heapless::Vec<TracePoint, TRACE_CAPACITY>, point: TracePoint) {
-    if trace.push(point).is_err() {
-        // Full: keep the newest point in the last slot.
-        if let Some(last) = trace.last_mut() {
-            *last = point;
-        }
-    }
 }
 
 /// Identify the free parameters of `spec` from `records`. `progress` is called after every

@@ -14,6 +14,7 @@ pub mod normal_equations;
 pub mod objective;
 pub mod pipeline;
 pub mod profile_check;
+pub mod progress;
 pub mod refine;
 pub mod score_blocks;
 pub mod space;
