@@ -126,8 +126,8 @@ impl<'r, 'a> Objective<'r, 'a> {
         r: &Record,
         p: &ModelParams,
     ) -> (InitialState, Option<InitialState>) {
-        let init = r.initial_state(p, self.sigma_omega, self.sigma_current);
         let at_rest = r.starts_at_rest(p, self.sigma_omega, self.sigma_current);
+        let init = r.initial_state(p, at_rest, self.sigma_current);
         let shifted = (!at_rest).then_some(InitialState {
             omega: init.omega + SHIFT,
             ..init

@@ -66,14 +66,6 @@ pub struct ScoreBlocks {
 }
 
 impl ScoreBlocks {
-    /// No sums yet, for `dim` free coordinates.
-    pub fn new(dim: usize) -> Self {
-        ScoreBlocks {
-            dim,
-            ..ScoreBlocks::EMPTY
-        }
-    }
-
     /// No sums, no coordinates (a constant: built in place, not on the stack and copied).
     pub const EMPTY: ScoreBlocks = ScoreBlocks {
         dim: 0,
@@ -179,6 +171,13 @@ impl ScoreBlocks {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// No sums yet, for `dim` free coordinates.
+    fn blocks(dim: usize) -> ScoreBlocks {
+        let mut s = ScoreBlocks::EMPTY;
+        s.set_dim(dim);
+        s
+    }
     use crate::rng::{normal, seeded};
 
     /// The slope's variance of the least-squares line through `y` over `t = k / n`, by the
@@ -196,7 +195,7 @@ mod tests {
         let det = s1 * stt - st * st;
         let slope = (s1 * sty - st * sy) / det;
         let intercept = (sy - slope * st) / s1;
-        let mut s = ScoreBlocks::new(2);
+        let mut s = blocks(2);
         s.start_record(n);
         for (k, &yk) in y.iter().enumerate() {
             let r = (yk as f64 - intercept - slope * t(k)) as f32;
@@ -250,8 +249,8 @@ mod tests {
         let h: Vec<f32> = (0..n).map(|k| libm::expf(-(k as f32) / 400.0)).collect();
         let c = 7.0f32;
         let col = |k: usize| [1.0f32, k as f32 / n as f32];
-        let mut plain = ScoreBlocks::new(2);
-        let mut shifted = ScoreBlocks::new(2);
+        let mut plain = blocks(2);
+        let mut shifted = blocks(2);
         plain.start_record(n);
         shifted.start_record(n);
         for k in 0..n {
@@ -274,7 +273,7 @@ mod tests {
 
     #[test]
     fn too_few_blocks_give_no_estimate() {
-        let mut s = ScoreBlocks::new(5);
+        let mut s = blocks(5);
         s.start_record(4);
         for _ in 0..4 {
             s.add(&[1.0; 5], &[0.0; 5], (1.0, 0.0), (0.0, 0.0));

@@ -126,8 +126,8 @@ impl<'a> Record<'a> {
     }
 
     /// Initial state of the simulation for this record and motor `p`. Speed: exactly rest
-    /// when the record [starts at rest](Record::starts_at_rest), else the first reading
-    /// (the fit then projects the initial speed out). Current: the
+    /// when the record starts `at_rest` ([`Record::starts_at_rest`], which its caller needs
+    /// too), else the first reading (the fit then projects the initial speed out). Current: the
     /// mechanical equilibrium `Kv i = B w + tc sign(w) + kq w |w| + tl` (paper Eq. 4 with
     /// dw/dt = 0 and the friction effects), exact at rest and in steady state, unless the
     /// current is fitted (`sigma_current` given) and its first reading, less the sensor's
@@ -137,14 +137,10 @@ impl<'a> Record<'a> {
     pub fn initial_state(
         &self,
         p: &ModelParams,
-        sigma_omega: f32,
+        at_rest: bool,
         sigma_current: Option<f32>,
     ) -> InitialState {
-        let omega = if self.starts_at_rest(p, sigma_omega, sigma_current) {
-            0.0
-        } else {
-            self.omega[0]
-        };
+        let omega = if at_rest { 0.0 } else { self.omega[0] };
         let friction = FrictionLaw::of(p).opposition(sign(omega), omega)
             + quadratic_load::torque(p.get(ParamId::Kq), omega);
         let equilibrium =
@@ -215,10 +211,11 @@ mod tests {
             coast_from: None,
         };
         let p = ModelParams::PAPER_MOTOR.with(ParamId::Io, 0.35);
-        assert_eq!(r.initial_state(&p, 0.5, Some(0.05)).current, 0.0);
+        let at_rest = |p: &ModelParams| r.starts_at_rest(p, 0.5, Some(0.05));
+        assert_eq!(r.initial_state(&p, at_rest(&p), Some(0.05)).current, 0.0);
         // Without the offset in the model, the reading is 6.6 sigma from rest: a current.
         let q = ModelParams::PAPER_MOTOR;
-        assert_eq!(r.initial_state(&q, 0.5, Some(0.05)).current, 0.33);
+        assert_eq!(r.initial_state(&q, at_rest(&q), Some(0.05)).current, 0.33);
     }
 
     #[test]
