@@ -68,8 +68,7 @@ const CORRECTIONS: [Correction; 4] = [
 ];
 
 /// The worst channel's RMSE over its noise.
-fn worst_ratio(f: &Fit) -> f32 {
-    let q = FitQuality::of(&f.result);
+fn worst_ratio(q: &FitQuality) -> f32 {
     let current = q.current.map_or(0.0, |c| c.rmse_over_noise.0);
     q.speed.rmse_over_noise.0.max(current)
 }
@@ -95,7 +94,7 @@ pub fn cheap_explanations(
         ));
         return Ok(hints);
     }
-    let before = worst_ratio(given);
+    let before = worst_ratio(&quality);
     let quiet = FitOptions {
         quiet: true,
         ..opts.clone()
@@ -110,7 +109,7 @@ pub fn cheap_explanations(
         let Ok(f) = fit_quick(&corrected, &quiet) else {
             continue;
         };
-        let after = worst_ratio(&f);
+        let after = worst_ratio(&FitQuality::of(&f.result));
         if after <= EXPLAINS && after <= 0.5 * before {
             hints.push(format!(
                 "{}? Corrected, the fit is {after:.2} x its noise instead of {before:.1} x",

@@ -58,6 +58,21 @@ pub struct Misfit {
 
 /// The model of a report: the parameters under `verdict.params` (diagnose) or `params`.
 pub fn read_params(path: &Path) -> Result<ModelParams> {
+    read_params_report(path).map(|r| r.params)
+}
+
+/// What `--params` reads of a report, from one reading of it.
+pub struct ParamsReport {
+    /// The model ([`read_params`]).
+    pub params: ModelParams,
+    /// The parameters its identification did not pin: an `identify` report's
+    /// `identifiability.not_pinned`, a `board` report's parameters whose `pinned` is false;
+    /// empty for a report that says nothing of it (`diagnose`).
+    pub unpinned: Vec<ParamId>,
+}
+
+/// The model of the report at `path` and what its identification did not pin.
+pub fn read_params_report(path: &Path) -> Result<ParamsReport> {
     let json = read_report(path)?;
     let params = json["verdict"]["params"]
         .as_object()
@@ -92,7 +107,10 @@ pub fn read_params(path: &Path) -> Result<ModelParams> {
     }
     p.validate()
         .map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    Ok(p)
+    Ok(ParamsReport {
+        params: p,
+        unpinned: unpinned_of(&json),
+    })
 }
 
 /// The JSON report at `path`, refused when it is not JSON or of a newer schema than this
@@ -113,11 +131,8 @@ fn read_report(path: &Path) -> Result<serde_json::Value> {
     Ok(json)
 }
 
-/// The parameters of the JSON report at `path` that its identification did not pin: an
-/// `identify` report's `identifiability.not_pinned`, a `board` report's parameters whose
-/// `pinned` is false; empty for a report that says nothing of it (`diagnose`).
-pub fn unpinned_params(path: &Path) -> Result<Vec<ParamId>> {
-    let json = read_report(path)?;
+/// [`ParamsReport::unpinned`] of a report.
+fn unpinned_of(json: &serde_json::Value) -> Vec<ParamId> {
     let ident = &json["identifiability"];
     let names: Vec<&str> = match (
         ident["not_pinned"].as_array(),
@@ -131,7 +146,7 @@ pub fn unpinned_params(path: &Path) -> Result<Vec<ParamId>> {
             .collect(),
         _ => Vec::new(),
     };
-    Ok(names.into_iter().filter_map(ParamId::from_name).collect())
+    names.into_iter().filter_map(ParamId::from_name).collect()
 }
 
 /// What the parameters predict for one record: its speed, and its current where the check

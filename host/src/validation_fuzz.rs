@@ -1,9 +1,9 @@
 //! Fuzz target `report` (the harness is described in the `motor-id-fuzz` crate, the seeds
 //! are in `fuzz/corpus/report/`: `ok-*` must load, `err-*` must be refused): the reader of
-//! a JSON report's parameters, [`read_params`], and of what it did not pin,
-//! [`unpinned_params`] (`validate --params`, `tune --params`). It checks that on any bytes
-//! (random, the seeds mutated) neither panics, and `read_params` either gives parameters
-//! that [`ModelParams::validate`] takes or an error of one line, as the CLI prints it.
+//! a JSON report's parameters and of what it did not pin, [`read_params_report`]
+//! (`validate --params`, `tune --params`). It checks that on any bytes (random, the seeds
+//! mutated) it never panics, and either gives parameters that [`ModelParams::validate`]
+//! takes or an error of one line, as the CLI prints it.
 
 use super::*;
 use motor_id_fuzz::{check, corpus, mutated};
@@ -13,12 +13,10 @@ use proptest::test_runner::TestCaseResult;
 /// Cases per property in the default run (each writes and reads a file).
 const CASES: u32 = 512;
 
-/// Read `bytes` as a report at `path`: what `read_params` gives, and that
-/// `unpinned_params` answers too.
+/// Read `bytes` as a report at `path`.
 fn read_bytes(path: &Path, bytes: &[u8]) -> Result<ModelParams> {
     std::fs::write(path, bytes).expect("write the case");
-    let _ = unpinned_params(path);
-    read_params(path)
+    read_params_report(path).map(|r| r.params)
 }
 
 /// Loaded parameters are valid; a refusal is one line.
@@ -53,7 +51,7 @@ fn replays_the_seed_corpus() {
             std::fs::read(motor_id_fuzz::corpus_dir("report").join(name)).unwrap(),
         )
         .unwrap();
-        unpinned_params(&path).unwrap()
+        read_params_report(&path).unwrap().unpinned
     };
     assert_eq!(unpinned("ok-identify.json"), [ParamId::B]);
     assert_eq!(unpinned("ok-board.json"), [ParamId::Kv]);

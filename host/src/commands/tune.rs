@@ -6,7 +6,7 @@ use crate::output::write_json;
 use crate::plot::{draw, Panel, Series};
 use crate::report::{ByParam, Num, SCHEMA_VERSION};
 use crate::tuning::{gains, step, Design, Gains, Loop, StepResponse};
-use crate::validation::{read_params, unpinned_params};
+use crate::validation::read_params_report;
 use anyhow::Result;
 use clap::Args;
 use motor_id_shared::ParamId;
@@ -99,8 +99,8 @@ const RULES: &str = "current loop: PI zero on the armature pole (Ti = La/Ra, Kp 
 
 /// Run `tune`.
 pub fn run(a: &TuneArgs) -> Result<()> {
-    let p = read_params(&a.params)?;
-    let caveats = caveats(&unpinned_params(&a.params)?);
+    let report = read_params_report(&a.params)?;
+    let (p, caveats) = (report.params, caveats(&report.unpinned));
     let design = Design {
         current_bandwidth_hz: f64::from(a.current_bandwidth),
         phase_margin_deg: f64::from(a.phase_margin),

@@ -86,23 +86,25 @@ pub struct PartialStandIn {
 /// the largest share of its excess; `None` when they may be named (every channel explained,
 /// or most of each channel's excess removed).
 pub fn stand_in_reason(channels: &[Channel]) -> Option<(String, usize)> {
-    let leaving: Vec<String> = channels
+    let leaving: Vec<usize> = (0..channels.len())
+        .filter(|&k| channels[k].leaves_most())
+        .collect();
+    let worst = *leaving
         .iter()
-        .filter(|c| c.leaves_most())
-        .map(|c| {
+        .min_by(|&&a, &&b| channels[a].removed().total_cmp(&channels[b].removed()))?;
+    let left: Vec<String> = leaving
+        .iter()
+        .map(|&k| {
             format!(
                 "with every effect the search found, {:.0} % of the held-out {} misfit above its floor is left",
-                100.0 * (1.0 - c.removed()),
-                c.name
+                100.0 * (1.0 - channels[k].removed()),
+                channels[k].name
             )
         })
         .collect();
-    let worst = (0..channels.len())
-        .filter(|&k| channels[k].leaves_most())
-        .min_by(|&a, &b| channels[a].removed().total_cmp(&channels[b].removed()))?;
     let why = format!(
         "{}: it may stand in for a cause the catalogue does not hold",
-        leaving.join("; ")
+        left.join("; ")
     );
     Some((why, worst))
 }
