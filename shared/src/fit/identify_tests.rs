@@ -6,6 +6,17 @@ use crate::model::synth::Noise;
 use crate::param_id::ParamId;
 use crate::testkit::Owned;
 
+/// The default pipeline with `seed` on `rec`, run to its end.
+fn default_fit(rec: &[crate::model::record::Record], seed: u64) -> Identification {
+    identify(
+        rec,
+        &ProblemSpec::default(),
+        &IdentifyConfig::default_pipeline(seed),
+        |_| ControlFlow::Continue(()),
+    )
+    .unwrap()
+}
+
 fn assert_within(p: &ModelParams, truth: &ModelParams, rel: f32) {
     for id in ParamId::MOTOR {
         let (a, b) = (p.get(id), truth.get(id));
@@ -31,13 +42,7 @@ fn paper_motor_with_current_recovered_within_one_percent() {
         11,
     );
     let rec = [data.record(true, false)];
-    let id = identify(
-        &rec,
-        &ProblemSpec::default(),
-        &IdentifyConfig::default_pipeline(1),
-        |_| ControlFlow::Continue(()),
-    )
-    .unwrap();
+    let id = default_fit(&rec, 1);
     std::println!(
         "{:?} evals {} rmse {}",
         id.params,
@@ -72,13 +77,7 @@ fn speed_only_step_pins_three_combinations() {
         5,
     );
     let rec = [data.record(false, false)];
-    let id = identify(
-        &rec,
-        &ProblemSpec::default(),
-        &IdentifyConfig::default_pipeline(2),
-        |_| ControlFlow::Continue(()),
-    )
-    .unwrap();
+    let id = default_fit(&rec, 2);
     let ident = &id.identifiability;
     std::println!("{:?}", ident);
     assert_eq!(ident.rank, 3);
@@ -327,13 +326,7 @@ fn reported_spread(ar: f32, seed: u64) -> (f32, f32, bool) {
         data.current[k] += 0.02 * ei;
     }
     let rec = [data.record(true, false)];
-    let id = identify(
-        &rec,
-        &ProblemSpec::default(),
-        &IdentifyConfig::default_pipeline(1),
-        |_| ControlFlow::Continue(()),
-    )
-    .unwrap();
+    let id = default_fit(&rec, 1);
     let std_of = |p: ParamId| {
         id.identifiability
             .params
