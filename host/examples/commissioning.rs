@@ -119,6 +119,23 @@ fn main() {
         }
         all_ok += ok as usize;
         like_ok += (ok && looks_like_motor) as usize;
+        if verbose && worst_z > 3.0 {
+            let z: Vec<String> = ParamId::ALL[..=ParamId::Tc.index()]
+                .iter()
+                .filter_map(|&id| {
+                    let e = report.get(id.index() as u8)?;
+                    let t = truth.get(id);
+                    e.pinned().then(|| {
+                        let (z, rel) = ((e.value - t) / e.std, 100.0 * (e.value / t - 1.0));
+                        format!("{} {z:+.2}σ ({rel:+.3} %)", id.name())
+                    })
+                })
+                .collect();
+            eprintln!(
+                "beyond 3 sigma: ra {ra} la {la} j {j} b {b} kv {kv} tau_m {tau_m}: {}",
+                z.join(", ")
+            );
+        }
         if verbose && !ok && looks_like_motor {
             eprintln!(
                 "not all six: ra {ra} la {la} j {j} b {b} kv {kv} tc {tc} tau_m {tau_m}\n  plan {:?}\n  {:?}",

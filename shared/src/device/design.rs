@@ -2,7 +2,8 @@
 //! limits: one voltage, and two records that share the board's record memory.
 //!
 //! - The **slow record** covers the mechanical mode: steps of ½ → ¼ → 1 of the voltage,
-//!   each a quarter of the record, then a coast-down over the last
+//!   each a quarter of the record and dipped by a tenth eight times
+//!   ([`crate::device::experiment::slow_input`]), then a coast-down over the last
 //!   quarter (paper Eq. 4 with i = 0 separates Coulomb from viscous friction), spanning
 //!   [`SLOW_SPAN`] mechanical time scales when the budget allows.
 //! - The **fast record** covers the electrical mode: [`FAST_STEP`] samples per La/Ra, a step
@@ -32,8 +33,13 @@ pub const FAST_SAMPLES: usize = 400;
 /// Waits for the shaft to stand still the records need: one before each.
 pub const QUIETS: f32 = 2.0;
 
-/// Mechanical time scales the slow record spans when the budget allows.
-pub const SLOW_SPAN: f32 = 6.0;
+/// Mechanical time scales the slow record spans when the budget allows: each of its three
+/// levels about five, so that the speed settles and the level's dips
+/// ([`crate::device::experiment::DITHER_CYCLES`]) relax (6 → 20: motor-like motors with
+/// all six within 3 % 89.6 → 93.9 % with the dips, pinned estimates within 3 σ 94.7 →
+/// 96.8 %; 30 and 40, each with dips of the same length, did no better,
+/// `docs/measurements/commissioning.md`).
+pub const SLOW_SPAN: f32 = 20.0;
 /// Share of the budget the fast record may take at most.
 const FAST_BUDGET: f32 = 0.15;
 

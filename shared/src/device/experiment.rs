@@ -22,12 +22,28 @@ pub const fn coast_start(n: usize) -> usize {
     n - n / 4
 }
 
+/// Dips of the voltage within each level of the slow record.
+pub const DITHER_CYCLES: usize = 8;
+/// Depth of a dip, a share of the level's voltage.
+pub const DITHER_DEPTH: f32 = 0.1;
+
 /// Input of sample `k` of the slow record of `n` samples: ½ → ¼ → 1 of `volts` over three
 /// equal parts of the first three quarters (paper's Section 6 speed changes: each level a
-/// steady speed, so that the torque balance of paper Eq. 4 is seen at three speeds, and the
-/// step down reverses the current against the back-EMF), then the bridge open over the last
-/// quarter: the coast-down, friction alone slowing the shaft, from the highest speed, where
-/// viscous friction B ω stands out most against Coulomb friction
+/// speed held for several mechanical time scales, so that the torque balance of paper Eq. 4
+/// is seen at three speeds, and the step down reverses the current against the back-EMF),
+/// then the bridge open over the last quarter: the coast-down, friction alone slowing the
+/// shaft, from the highest speed, where viscous friction B ω stands out most against
+/// Coulomb friction.
+///
+/// Within each level the voltage dips by [`DITHER_DEPTH`] over every second of
+/// 2 × [`DITHER_CYCLES`] equal parts. A level held still keeps the current and speed
+/// readings on one ADC count (the noise is under a count), so that its mean, which carries
+/// B through B ω / Kv, is known to a count only, and that rounding is the same over the
+/// whole level, where the block scores cannot see it. Each dip moves the current by
+/// 0.1 V / Ra and lets it relax with the mechanical time scale, sweeping the readings over
+/// many counts so that their rounding averages out. On the commissioning benchmark's 1,000
+/// motors: motor-like motors with all six within 3 % 89.6 → 93.9 %, pinned estimates within
+/// 3 σ 94.7 → 96.8 %, the fit's 90th percentile of evaluations 1,771 → 137
 /// (`docs/measurements/commissioning.md`).
 pub fn slow_input(k: usize, n: usize, volts: f32) -> Bridge {
     let coast = coast_start(n);
@@ -39,7 +55,11 @@ pub fn slow_input(k: usize, n: usize, volts: f32) -> Bridge {
         1 => 0.25,
         _ => 1.0,
     };
-    Bridge::Drive(share * volts)
+    let dip = match (2 * DITHER_CYCLES * 3 * k / coast.max(1)) % 2 {
+        0 => 1.0,
+        _ => 1.0 - DITHER_DEPTH,
+    };
+    Bridge::Drive(share * dip * volts)
 }
 
 /// Input of sample `k` of the fast record of `n` samples: 0 V over the first twentieth, the
@@ -91,12 +111,34 @@ mod tests {
         let (n, volts) = (2000, 48.0);
         let inputs: std::vec::Vec<Bridge> = (0..n).map(|k| slow_input(k, n, volts)).collect();
         assert_eq!(coast_start(n), 1500);
+        // Each level of 500 samples: 16 parts of 31.25 samples, every second one dipped
+        // by a tenth.
+        let dipped = 1.0 - DITHER_DEPTH;
         assert_eq!(inputs[0], Bridge::Drive(24.0));
-        assert_eq!(inputs[499], Bridge::Drive(24.0));
+        assert_eq!(inputs[31], Bridge::Drive(24.0));
+        assert_eq!(inputs[32], Bridge::Drive(24.0 * dipped));
+        assert_eq!(inputs[499], Bridge::Drive(24.0 * dipped));
         assert_eq!(inputs[500], Bridge::Drive(12.0));
         assert_eq!(inputs[1000], Bridge::Drive(48.0));
-        assert_eq!(inputs[1499], Bridge::Drive(48.0));
+        assert_eq!(inputs[1499], Bridge::Drive(48.0 * dipped));
         assert!(inputs[1500..].iter().all(|b| *b == Bridge::Open));
+        // Half of each level is dipped: its mean voltage 0.95 of the level.
+        for (level, volts) in [(0, 24.0), (1, 12.0), (2, 48.0)] {
+            let mean: f32 = inputs[level * 500..(level + 1) * 500]
+                .iter()
+                .map(|b| match b {
+                    Bridge::Drive(v) => *v,
+                    Bridge::Open => f32::NAN,
+                })
+                .sum::<f32>()
+                / 500.0;
+            assert!((mean / volts - 0.95).abs() < 1e-3, "{level}: {mean}");
+        }
+        // No input exceeds the designed voltage.
+        assert!(inputs.iter().all(|b| match b {
+            Bridge::Drive(v) => *v <= volts,
+            Bridge::Open => true,
+        }));
     }
 
     #[test]
