@@ -13,6 +13,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod capacity;
+pub mod catalogue;
 pub mod device;
 pub mod error;
 pub mod fit;

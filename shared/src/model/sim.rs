@@ -18,7 +18,9 @@ use crate::capacity::SIM_EFFECT_PARAMS;
 use crate::error::Error;
 use crate::model::discretise::Discrete;
 use crate::model::effects::friction::FrictionLaw;
-use crate::model::effects::{current_offset, sensor_delay, tacho_ripple, SWITCHES};
+use crate::model::effects::{
+    current_offset, sensor_delay, tacho_ripple, Role, EFFECT_COUNT, ROLES, SWITCHES,
+};
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
 
@@ -103,6 +105,29 @@ pub(crate) fn sign(x: f32) -> f32 {
     }
 }
 
+/// The entries whose role satisfies `acts`, as a bit per entry in catalogue order.
+macro_rules! role_mask {
+    ($acts:expr) => {{
+        let mut mask = 0u32;
+        let mut e = 0;
+        while e < EFFECT_COUNT {
+            if $acts(&ROLES[e]) {
+                mask |= 1 << e;
+            }
+            e += 1;
+        }
+        mask
+    }};
+}
+
+/// Entries that act on the shaft's friction.
+const SHAFT_FRICTION: u32 = role_mask!(Role::shaft_friction);
+/// Entries beyond what the Coulomb friction path takes.
+const BEYOND_COULOMB: u32 = role_mask!(Role::beyond_coulomb);
+/// The shaft's dead zone of Coulomb friction.
+const SHAFT_DEAD_ZONE: u32 = role_mask!(Role::shaft_dead_zone);
+const _: () = assert!(EFFECT_COUNT <= 32, "one bit per entry");
+
 /// Position of the first held effect parameter (`tc`) in [`ParamId::ALL`].
 const FIRST_HELD: usize = ParamId::MOTOR.len();
 
@@ -163,23 +188,18 @@ impl Simulator {
         for (k, v) in held.iter_mut().enumerate() {
             *v = p.get(ParamId::ALL[FIRST_HELD + k]);
         }
-        let on = |id: ParamId| p.get(id) != 0.0;
+        let mut on = 0u32;
+        for (e, id) in SWITCHES.iter().enumerate() {
+            if p.get(*id) != 0.0 {
+                on |= 1 << e;
+            }
+        }
         let delayed = delay_whole != 0 || delay_frac != 0.0;
-        let friction = on(ParamId::Tc) || on(ParamId::Ts) || on(ParamId::Ka);
+        let friction = on & SHAFT_FRICTION != 0;
         // Effects on the dynamics or the reading's shape other than Coulomb friction (a
         // delay only shifts the reading: the fast paths push through the delay line).
-        let others = [
-            ParamId::Kq,
-            ParamId::Kar,
-            ParamId::Vb,
-            ParamId::RippleAmp,
-            ParamId::Ts,
-            ParamId::Ka,
-            ParamId::Vdt,
-            ParamId::Io,
-        ];
-        let friction_only = !others.into_iter().any(on);
-        let linear = !on(ParamId::Tc) && friction_only;
+        let friction_only = on & BEYOND_COULOMB == 0;
+        let linear = friction_only && on & SHAFT_DEAD_ZONE == 0;
         let mut s = Simulator {
             disc,
             dt,

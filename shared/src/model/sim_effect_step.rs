@@ -1,12 +1,12 @@
-//! The step with any effect (paper Eq. 5 with the catalogue's held inputs): armature
-//! reaction, fan load and bridge dead time as held voltage and load; brush drop and
+//! The step with any effect (paper Eq. 5 with the catalogue's held inputs): the entries of
+//! role [`Role::HeldInputs`] (armature reaction, fan load, bridge dead time) as held
+//! voltage and load, each from its own entry; brush drop and
 //! friction as dead zones, whose stuck state is frozen while the other advances with its
 //! own exact first-order step (see the module doc of [`super`]).
 
 use super::{sign, Compensated, Simulator};
-use crate::model::effects::{
-    armature_reaction, bridge_deadtime, brush_drop, quadratic_load, tacho_ripple,
-};
+use crate::capacity::FULL;
+use crate::model::effects::{brush_drop, tacho_ripple, Held, Role, StepState, ROLES, SWITCHES};
 use crate::param_id::ParamId;
 
 /// A dead zone on a state that may stick at zero (shaft speed under friction, current under
@@ -55,14 +55,25 @@ impl Simulator {
     pub(super) fn step_with_effects(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         let i0 = self.current.hi;
         let w0 = self.omega.hi;
-        // Armature reaction as held inputs: the linear part uses kv; the flux loss adds
-        // back (1 - flux) kv w to the voltage and removes (1 - flux) kv i of torque.
-        let dkv = armature_reaction::lost_constant(self.effect(ParamId::Kar), self.kv, i0);
-        let mut volts = v + dkv * w0;
-        let mut load = tl + dkv * i0 + quadratic_load::torque(self.effect(ParamId::Kq), w0);
-        let vdt = self.effect(ParamId::Vdt);
-        if vdt != 0.0 {
-            volts -= bridge_deadtime::voltage(vdt, self.effect(ParamId::Ib), i0);
+        // The entries' held inputs (armature reaction, fan load, bridge dead time), in
+        // catalogue order; none on a board, whose simulator holds no such entry.
+        let (mut volts, mut load) = (v, tl);
+        if FULL {
+            let (held, at) = (
+                Held(&self.held),
+                StepState {
+                    kv: self.kv,
+                    current: i0,
+                    omega: w0,
+                },
+            );
+            for (e, role) in ROLES.iter().enumerate() {
+                if let (Role::HeldInputs(inputs), true) = (role, held.get(SWITCHES[e]) != 0.0) {
+                    let added = inputs(&held, &at);
+                    volts += added.volts;
+                    load += added.load;
+                }
+            }
         }
         let vb = self.effect(ParamId::Vb);
         let mut brush = 0.0;

@@ -3,7 +3,7 @@
 //! (kept above a tenth). The linear step keeps `kv`; the loss enters as held inputs: the
 //! voltage gains back `(1 - flux) kv w` and the torque loses `(1 - flux) kv i`.
 
-use super::entry::{ids, one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -30,6 +30,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "current*|current|",
         at: |x| x.current * x.current.abs(),
     }),
+    role: Role::HeldInputs(held),
 };
 
 /// Flux factor `1 - kar |i|`, kept above 0.1.
@@ -46,4 +47,14 @@ pub fn flux_factor(kar: f32, i: f32) -> f32 {
 #[inline(always)]
 pub fn lost_constant(kar: f32, kv: f32, i: f32) -> f32 {
     (1.0 - flux_factor(kar, i)) * kv
+}
+
+/// Its held inputs at the step's start: the voltage gains back `(1 - flux) kv w`, the torque
+/// loses `(1 - flux) kv i` (a load).
+fn held(h: &Held, x: &StepState) -> HeldInputs {
+    let lost = lost_constant(h.get(ParamId::Kar), x.kv, x.current);
+    HeldInputs {
+        volts: lost * x.omega,
+        load: lost * x.current,
+    }
 }

@@ -9,7 +9,7 @@
 //! trap a local search does not leave; `ka` keeps both directions' friction positive and
 //! smooth everywhere in its box.
 
-use super::entry::{ids, one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Role, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -17,7 +17,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     id: ParamId::Ka,
     name: "ka",
     key: "ka",
-    unit: "-",
+    unit: "",
     default_bounds: (-0.9, 0.9),
     physical_range: (-1.0, 1.0),
 }];
@@ -38,6 +38,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus one while turning",
         at: |x| -((x.omega.abs() > 0.02 * x.omega_max) as i32 as f64),
     }),
+    role: Role::FrictionLaw,
 };
 
 /// Its change of the Coulomb torque `tc` for a motion in `direction` (+1, -1).

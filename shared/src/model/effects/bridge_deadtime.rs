@@ -6,7 +6,7 @@
 //! `ib`: `v_error = -vdt clamp(i / ib, -1, 1)`. Unlike `brush_drop`, current flows through
 //! it (no dead zone at zero current).
 
-use super::entry::{ids, EffectBounds, EffectSpec, Signature};
+use super::entry::{ids, EffectBounds, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -49,6 +49,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus current over a small band",
         at: |x| -(x.current / (0.05 * x.current_max).max(1e-12)).clamp(-1.0, 1.0),
     }),
+    role: Role::HeldInputs(held),
 };
 
 /// The voltage it takes from the bridge's output at current `i` (subtracted from the
@@ -65,4 +66,12 @@ pub fn voltage(vdt: f32, ib: f32, i: f32) -> f32 {
         0.0
     };
     vdt * share
+}
+
+/// Its held inputs: the voltage the bridge loses at the step's starting current.
+fn held(h: &Held, x: &StepState) -> HeldInputs {
+    HeldInputs {
+        volts: -voltage(h.get(ParamId::Vdt), h.get(ParamId::Ib), x.current),
+        load: 0.0,
+    }
 }

@@ -2,7 +2,7 @@
 //! sensor's zero error): the reading is `i + io` while the motor carries `i`. It acts on the
 //! current channel only, so only records with current show it.
 
-use super::entry::{ids, one, EffectSpec};
+use super::entry::{ids, one, EffectSpec, Role};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -30,6 +30,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     },
     // No mark on the speed: it shows in the current residual as a constant.
     signature: None,
+    role: Role::Reading,
 };
 
 /// The current reading of armature current `i`.

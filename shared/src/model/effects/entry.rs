@@ -27,6 +27,84 @@ pub struct EffectSpec {
     pub search_bounds: fn(p: &ModelParams, s: &Scales) -> EffectBounds,
     /// The shape its absence leaves in the speed residual, if it has a simple one.
     pub signature: Option<Signature>,
+    /// Where it acts in the model step: the simulator takes it from here.
+    pub role: Role,
+}
+
+/// Where an effect acts in the model step ([`crate::model::sim`]).
+#[derive(Clone, Copy, Debug)]
+pub enum Role {
+    /// Voltage and load torque added to the step's inputs, held over the step (paper Eq. 5
+    /// with the effect's terms as inputs): an entry of this role needs nothing in the
+    /// simulator but its function.
+    HeldInputs(HeldFn),
+    /// The shaft's dead zone of Coulomb friction, which the simulator's friction path takes
+    /// alone.
+    ShaftDeadZone,
+    /// A part of the shaft's friction law beyond Coulomb's ([`super::friction`]).
+    FrictionLaw,
+    /// The current's dead zone (a drop that no current flows under).
+    CurrentDeadZone,
+    /// A lag of the tacho reading, nothing else: the fast paths push through the delay line.
+    ReadingDelay,
+    /// The shape of a reading (the tacho's, or the current's).
+    Reading,
+}
+
+impl Role {
+    /// It changes the dynamics or the readings' shape beyond what the simulator's Coulomb
+    /// friction path takes (which handles a shaft's dead zone and a delayed reading alone).
+    pub const fn beyond_coulomb(&self) -> bool {
+        !matches!(self, Role::ShaftDeadZone | Role::ReadingDelay)
+    }
+
+    /// It is the shaft's dead zone of Coulomb friction.
+    pub const fn shaft_dead_zone(&self) -> bool {
+        matches!(self, Role::ShaftDeadZone)
+    }
+
+    /// It acts on the shaft's friction (its dead zone or its law).
+    pub const fn shaft_friction(&self) -> bool {
+        matches!(self, Role::ShaftDeadZone | Role::FrictionLaw)
+    }
+}
+
+/// An effect's held inputs at the start of a step.
+pub type HeldFn = fn(&Held, &StepState) -> HeldInputs;
+
+/// The state at the start of a step that held inputs read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepState {
+    /// Back-EMF / torque constant Kv [V s/rad].
+    pub kv: f32,
+    /// Armature current [A].
+    pub current: f32,
+    /// Shaft speed [rad/s].
+    pub omega: f32,
+}
+
+/// Voltage and load torque an effect adds to a step's inputs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeldInputs {
+    /// Added to the armature voltage [V].
+    pub volts: f32,
+    /// Added to the load torque [N m].
+    pub load: f32,
+}
+
+/// The effect parameters a simulator holds, from `tc` on in [`ParamId`] order.
+#[derive(Clone, Copy, Debug)]
+pub struct Held<'a>(pub &'a [f32]);
+
+impl Held<'_> {
+    /// Parameter `id` (0 for one not held: the effect is off).
+    #[inline(always)]
+    pub fn get(&self, id: ParamId) -> f32 {
+        match self.0.get(id.index().wrapping_sub(ParamId::MOTOR.len())) {
+            Some(v) => *v,
+            None => 0.0,
+        }
+    }
 }
 
 /// The shape of the speed residual (measured minus model) that an effect leaves when the

@@ -3,83 +3,91 @@
 //! parameters with units and ranges, the search bounds a fit gives them, its term in the
 //! model step, and the signature its absence leaves in a residual (for the diagnosis).
 //!
-//! Adding an effect: a file here with its entry and its step terms, its parameters appended
-//! to [`ParamId`], one line in [`Effect`] and [`CATALOGUE`], and the call of its terms in
-//! [`crate::model::sim`]. The compile-time checks below catch an entry that is missing or
-//! out of order.
+//! Adding an effect: a file here with its entry, its row in the table of parameters and
+//! effects ([`crate::catalogue`]: the entry's variant, its module and its parameters, which
+//! generate [`ParamId`], [`Effect`] and [`CATALOGUE`]), and its tests. The entry's
+//! [`Role`] tells the simulator where it acts: an effect that adds held inputs (a voltage,
+//! a load torque) needs nothing more; one that acts in a way the simulator does not know
+//! yet (a new dead zone, a reading's shape, a state of its own) is a new role, written once
+//! in [`crate::model::sim`]. The compile-time checks below catch an entry whose spec and
+//! row differ.
 
-pub mod armature_reaction;
-pub mod asymmetric_friction;
-pub mod bridge_deadtime;
-pub mod brush_drop;
-pub mod coulomb_friction;
-pub mod current_offset;
 pub mod entry;
 pub mod friction;
-pub mod quadratic_load;
-pub mod sensor_delay;
-pub mod static_friction;
-pub mod tacho_ripple;
 
-pub use entry::{EffectBounds, EffectSpec, Scales, Signature, SignatureSample};
+pub use entry::{
+    EffectBounds, EffectSpec, Held, HeldInputs, Role, Scales, Signature, SignatureSample, StepState,
+};
 
 use crate::model::params::{ModelParams, MOTOR_SPECS};
 use crate::param_id::{ParamId, ParamSpec, PARAM_COUNT};
 
-/// One effect that the linear model of paper Eq. 5 lacks.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Effect {
-    /// [`coulomb_friction`].
-    CoulombFriction,
-    /// [`quadratic_load`].
-    QuadraticLoad,
-    /// [`armature_reaction`].
-    ArmatureReaction,
-    /// [`brush_drop`].
-    BrushDrop,
-    /// [`sensor_delay`].
-    SensorDelay,
-    /// [`tacho_ripple`].
-    TachoRipple,
-    /// [`static_friction`] (extends [`coulomb_friction`]).
-    StaticFriction,
-    /// [`asymmetric_friction`] (extends [`coulomb_friction`]).
-    AsymmetricFriction,
-    /// [`bridge_deadtime`].
-    BridgeDeadtime,
-    /// [`current_offset`].
-    CurrentOffset,
+/// The entries' modules, [`Effect`], [`CATALOGUE`] and the parameters each row lists, from
+/// the table's rows.
+macro_rules! effect_list {
+    (
+        motor [$($(#[$motor_doc:meta])* $motor:ident),*]
+        entries [$(
+            $(#[$entry_doc:meta])* $entry:ident $module:ident [$($(#[$doc:meta])* $param:ident),*]
+        )*]
+    ) => {
+        $(pub mod $module;)*
+
+        /// One effect that the linear model of paper Eq. 5 lacks.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        pub enum Effect {
+            $($(#[$entry_doc])* $entry,)*
+        }
+
+        /// The catalogue, in the order of [`Effect`].
+        pub const CATALOGUE: [&EffectSpec; EFFECT_COUNT] = [$(&$module::SPEC,)*];
+
+        /// Every effect, in the table's order.
+        const LISTED: &[Effect] = &[$(Effect::$entry,)*];
+
+        /// The parameters each row of the table lists.
+        const ROW_PARAMS: &[&[ParamId]] = &[$(&[$(ParamId::$param),*],)*];
+    };
 }
 
-/// The catalogue, in the order of [`Effect`].
-pub const CATALOGUE: [&EffectSpec; 10] = [
-    &coulomb_friction::SPEC,
-    &quadratic_load::SPEC,
-    &armature_reaction::SPEC,
-    &brush_drop::SPEC,
-    &sensor_delay::SPEC,
-    &tacho_ripple::SPEC,
-    &static_friction::SPEC,
-    &asymmetric_friction::SPEC,
-    &bridge_deadtime::SPEC,
-    &current_offset::SPEC,
-];
+crate::catalogue::catalogue_table!(effect_list);
+
+/// Number of entries in the catalogue.
+pub const EFFECT_COUNT: usize = LISTED.len();
+
+// Each entry's spec adds exactly the parameters its row of the table lists, in order.
+const _: () = {
+    let mut e = 0;
+    while e < EFFECT_COUNT {
+        let (spec, row) = (CATALOGUE[e].ids, ROW_PARAMS[e]);
+        assert!(
+            spec.len() == row.len(),
+            "an entry's spec and its row differ"
+        );
+        let mut k = 0;
+        while k < row.len() {
+            assert!(
+                spec[k] as usize == row[k] as usize,
+                "an entry's spec and its row differ"
+            );
+            k += 1;
+        }
+        e += 1;
+    }
+};
 
 impl Effect {
     /// The whole catalogue.
-    pub const ALL: [Effect; 10] = [
-        Effect::CoulombFriction,
-        Effect::QuadraticLoad,
-        Effect::ArmatureReaction,
-        Effect::BrushDrop,
-        Effect::SensorDelay,
-        Effect::TachoRipple,
-        Effect::StaticFriction,
-        Effect::AsymmetricFriction,
-        Effect::BridgeDeadtime,
-        Effect::CurrentOffset,
-    ];
+    pub const ALL: [Effect; EFFECT_COUNT] = {
+        let mut out = [Effect::CoulombFriction; EFFECT_COUNT];
+        let mut k = 0;
+        while k < EFFECT_COUNT {
+            out[k] = LISTED[k];
+            k += 1;
+        }
+        out
+    };
 
     /// Its entry.
     pub const fn spec(self) -> &'static EffectSpec {
@@ -173,9 +181,21 @@ const UNITS: [&str; PARAM_COUNT] = spec_field!(unit: &str);
 const DEFAULT_BOUNDS: [(f32, f32); PARAM_COUNT] = spec_field!(default_bounds: (f32, f32));
 const PHYSICAL_RANGES: [(f32, f32); PARAM_COUNT] = spec_field!(physical_range: (f32, f32));
 
+/// Each entry's role in the model step, in catalogue order (a table of its own, so that a
+/// build links only what the simulator reads).
+pub const ROLES: [Role; EFFECT_COUNT] = {
+    let mut out = [Role::Reading; EFFECT_COUNT];
+    let mut e = 0;
+    while e < EFFECT_COUNT {
+        out[e] = CATALOGUE[e].role;
+        e += 1;
+    }
+    out
+};
+
 /// The parameter that switches each effect on (its first; non-zero: on), in catalogue order.
-pub const SWITCHES: [ParamId; CATALOGUE.len()] = {
-    let mut out = [ParamId::Tc; CATALOGUE.len()];
+pub const SWITCHES: [ParamId; EFFECT_COUNT] = {
+    let mut out = [ParamId::Tc; EFFECT_COUNT];
     let mut e = 0;
     while e < CATALOGUE.len() {
         out[e] = CATALOGUE[e].params[0].id;

@@ -1,7 +1,7 @@
 //! `quadratic_load`: a fan or pump load whose torque grows with the square of the speed,
 //! `kq w |w|`, added to the load of paper Eq. 4.
 
-use super::entry::{ids, one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -31,10 +31,19 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus speed*|speed|",
         at: |x| -x.omega * x.omega.abs(),
     }),
+    role: Role::HeldInputs(held),
 };
 
 /// Its load torque at speed `w`, held over a step.
 #[inline(always)]
 pub fn torque(kq: f32, w: f32) -> f32 {
     kq * w * w.abs()
+}
+
+/// Its held inputs: the load torque at the step's starting speed.
+fn held(h: &Held, x: &StepState) -> HeldInputs {
+    HeldInputs {
+        volts: 0.0,
+        load: torque(h.get(ParamId::Kq), x.omega),
+    }
 }

@@ -2,7 +2,7 @@
 //! converter's conversion time); the simulator reads it from a delay line, interpolating
 //! between samples.
 
-use super::entry::{ids, one, EffectSpec, Signature};
+use super::entry::{ids, one, EffectSpec, Role, Signature};
 use crate::capacity::MAX_DELAY_SAMPLES;
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -31,6 +31,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus acceleration",
         at: |x| -x.accel,
     }),
+    role: Role::ReadingDelay,
 };
 
 /// The delay in samples at step `dt`, split into whole samples and a fraction; `None` when

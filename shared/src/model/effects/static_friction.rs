@@ -5,7 +5,7 @@
 //! model, without its viscous term, which is paper Eq. 4's `B w`). It extends
 //! `coulomb_friction` (`tc` is that entry's): the diagnosis tries it on top of it.
 
-use super::entry::{ids, EffectBounds, EffectSpec, Signature};
+use super::entry::{ids, EffectBounds, EffectSpec, Role, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -55,6 +55,7 @@ pub const SPEC: EffectSpec = EffectSpec {
             -x.omega.signum() * low as i32 as f64
         },
     }),
+    role: Role::FrictionLaw,
 };
 
 /// The excess of friction over the Coulomb torque at speed `w`: `ts exp(-(w/ws)^2)` (all

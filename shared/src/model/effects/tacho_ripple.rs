@@ -3,7 +3,7 @@
 //! `w (1 + ripple_amp sin(ripple_cycles theta + ripple_phase))`. The angle follows the
 //! measured speed when a fit gives it (see [`crate::model::sim::Simulator::apply`]).
 
-use super::entry::{ids, EffectBounds, EffectSpec};
+use super::entry::{ids, EffectBounds, EffectSpec, Role};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -56,6 +56,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     },
     // Found by the order spectrum of the residual against rotor angle, not a correlation.
     signature: None,
+    role: Role::Reading,
 };
 
 /// The tacho reading of shaft speed `w` at ripple angle `psi` (`ripple_cycles theta`).
