@@ -212,7 +212,10 @@ fn generated_bounds_and_fixes_parse_to_their_values_and_apply() {
     let split = Just(ParamId::ALL.to_vec())
         .prop_shuffle()
         .prop_flat_map(|all| (Just(all), 0..=ParamId::ALL.len(), 0..=ParamId::ALL.len()));
-    let values = proptest::collection::vec((0.0f32..=1.0, 0.0f32..=1.0, style()), 19);
+    let values = proptest::collection::vec(
+        (0.0f32..=1.0, 0.0f32..=1.0, style()),
+        motor_id_shared::param_id::PARAM_COUNT,
+    );
     check("spec", CASES, &(split, values), |((all, b, f), values)| {
         let (b, f) = (b.min(f), b.max(f));
         let (bounded, fixed) = (&all[..b], &all[b..f]);

@@ -35,9 +35,10 @@ pub const MAX_DELAY_SAMPLES: usize = if FULL { 126 } else { 0 };
 /// reports progress as it goes and keeps none).
 pub const TRACE_CAPACITY: usize = if FULL { 256 } else { 0 };
 
-/// Most parameter estimates in a board's report (host: the five motor parameters and
-/// every effect parameter; board: the five and `tc`).
-pub const MAX_ESTIMATES: usize = if FULL { 5 + MAX_FREE } else { 6 };
+/// Most parameter estimates in a board's report (host: every parameter of the model, the
+/// five motor parameters and every effect's; board: the five and `tc`). The wire's frame
+/// must hold a report of that many (`wire::frame` tests it).
+pub const MAX_ESTIMATES: usize = if FULL { PARAM_COUNT } else { 6 };
 
 /// Most refinements restarted from the next best FFO members after the first (the default
 /// pipeline's 3; their starting points are kept while the population is dropped).

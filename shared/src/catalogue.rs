@@ -93,6 +93,20 @@ macro_rules! catalogue_table {
                     /// Current sensor offset [A] (`current_offset`).
                     Io
                 ]
+                /// [`current_limit`].
+                CurrentLimit current_limit [
+                    /// Drive current limit [A] (`current_limit`).
+                    Imax
+                ]
+                /// [`cogging`].
+                Cogging cogging [
+                    /// Cogging (detent) torque amplitude [N m] (`cogging`).
+                    CogAmp,
+                    /// Cogging cycles per mechanical revolution [-] (`cogging`).
+                    CogCycles,
+                    /// Cogging phase [rad] (`cogging`).
+                    CogPhase
+                ]
             ]
         }
     };

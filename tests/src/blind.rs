@@ -21,11 +21,20 @@ const LINES: u32 = 2048;
 const NOISE_CURRENT: f64 = 0.05;
 
 /// The new catalogue entries of this check, by the name the case line uses.
-pub const SINGLES: [&str; 4] = ["static", "asymmetric", "deadtime", "offset"];
+pub const SINGLES: [&str; 6] = [
+    "static",
+    "asymmetric",
+    "deadtime",
+    "offset",
+    "limit",
+    "cogging",
+];
 
-/// Effects the catalogue does not hold, by the name the case line uses: a drive's current
-/// limit and cogging. Nothing may be named for them.
-pub const WITHHELD: [&str; 2] = ["limit", "cogging"];
+/// Effects the diagnosis is not given, by the name the case line uses: cogging without its
+/// detents per revolution (`cogging-untold`; the `cogging` case is told them, as a
+/// datasheet would, and the diagnosis tries cogging only when told). Nothing may be named
+/// for them.
+pub const WITHHELD: [&str; 1] = ["cogging-untold"];
 
 /// The catalogue name of a case's effect; `None` for a withheld one.
 pub fn entry(effect: &str) -> Option<&'static str> {
@@ -34,7 +43,9 @@ pub fn entry(effect: &str) -> Option<&'static str> {
         "asymmetric" => Some("asymmetric_friction"),
         "deadtime" => Some("bridge_deadtime"),
         "offset" => Some("current_offset"),
-        "limit" | "cogging" => None,
+        "limit" => Some("current_limit"),
+        "cogging" => Some("cogging"),
+        "cogging-untold" => None,
         "delay" => Some("sensor_delay"),
         other => panic!("unknown effect {other}"),
     }
@@ -89,7 +100,7 @@ fn effects(names: &[&str], m: &Motor, rate: f64, g: &mut Gaussian) -> Effects {
             }
             "limit" => e.imax = u(0.35, 0.4) * stall_current,
             "delay" => e.td = u(0.5, 1.0) / rate,
-            "cogging" => {
+            "cogging" | "cogging-untold" => {
                 e.cog_amp = 0.05 * stall_torque;
                 e.cog_cycles = 12.0;
                 e.cog_phase = u(0.0, std::f64::consts::TAU);
@@ -150,7 +161,12 @@ pub fn check(dir: &Path, names: &[&str], rate: f64, seed: u64) -> Outcome {
         paths.push(path);
     }
     let start = Instant::now();
-    let (report, _) = diagnose(&paths[..3], &paths[3..], &[], &dir.join("diag.json"));
+    // The cogging case is told the detents per revolution (12, as a datasheet gives them).
+    let told: &[&str] = match names.contains(&"cogging") {
+        true => &["--fix", "cog_cycles=12"],
+        false => &[],
+    };
+    let (report, _) = diagnose(&paths[..3], &paths[3..], told, &dir.join("diag.json"));
     let seconds = start.elapsed().as_secs_f64();
     let v: Value = report["verdict"].clone();
     if std::env::var_os("BLIND_VERBOSE").is_some() {

@@ -14,7 +14,7 @@
 //! The state is kept as a compensated (two-sum) f32 pair so that slow modes at high sample
 //! rates do not stall on f32 rounding.
 
-use crate::capacity::SIM_EFFECT_PARAMS;
+use crate::capacity::{FULL, SIM_EFFECT_PARAMS};
 use crate::error::Error;
 use crate::model::discretise::Discrete;
 use crate::model::effects::friction::FrictionLaw;
@@ -128,6 +128,9 @@ const BEYOND_COULOMB: u32 = role_mask!(Role::beyond_coulomb);
 const SHAFT_DEAD_ZONE: u32 = role_mask!(Role::shaft_dead_zone);
 const _: () = assert!(EFFECT_COUNT <= 32, "one bit per entry");
 
+/// One slot on the host, none on a board ([`crate::capacity::FULL`]).
+const HOST_SLOT: usize = FULL as usize;
+
 /// Position of the first held effect parameter (`tc`) in [`ParamId::ALL`].
 const FIRST_HELD: usize = ParamId::MOTOR.len();
 
@@ -164,6 +167,9 @@ pub struct Simulator {
     omega: Compensated,
     /// Ripple angle `ripple_cycles * theta`, wrapped to [-pi, pi].
     psi: f32,
+    /// Cogging angle `cog_cycles * theta`, wrapped to [-pi, pi] (host builds only: a board's
+    /// simulator holds no cogging, and is copied too often to carry the slot).
+    cogging_psi: [f32; HOST_SLOT],
     shaft_stuck: bool,
     current_stuck: bool,
     ring: [f32; RING],
@@ -217,6 +223,7 @@ impl Simulator {
             current: Compensated::new(0.0),
             omega: Compensated::new(0.0),
             psi: 0.0,
+            cogging_psi: [0.0; HOST_SLOT],
             shaft_stuck: false,
             current_stuck: false,
             ring: [0.0; RING],
@@ -232,6 +239,7 @@ impl Simulator {
         self.current = Compensated::new(init.current);
         self.omega = Compensated::new(init.omega);
         self.psi = 0.0;
+        self.cogging_psi = [0.0; HOST_SLOT];
         self.shaft_stuck = self.friction && init.omega == 0.0;
         self.current_stuck = self.effect(ParamId::Vb) > 0.0 && init.current == 0.0;
         self.open = false;
@@ -309,10 +317,10 @@ impl Simulator {
         }
     }
 
-    /// True when the tacho ripple follows the rotor angle: [`Simulator::apply`] then uses
-    /// the measured speed it is given (otherwise it is ignored).
+    /// True when the tacho ripple or cogging follows the rotor angle: [`Simulator::apply`]
+    /// then uses the measured speed it is given (otherwise it is ignored).
     pub fn tracks_angle(&self) -> bool {
-        self.effect(ParamId::RippleAmp) != 0.0
+        self.effect(ParamId::RippleAmp) != 0.0 || self.effect(ParamId::CogAmp) != 0.0
     }
 
     /// True shaft speed (no sensor effects).

@@ -1,12 +1,15 @@
 //! The step with any effect (paper Eq. 5 with the catalogue's held inputs): the entries of
-//! role [`Role::HeldInputs`] (armature reaction, fan load, bridge dead time) as held
-//! voltage and load, each from its own entry; brush drop and
+//! role [`Role::HeldInputs`] (armature reaction, bridge dead time, the current limit,
+//! cogging) as held voltage and load, each from its own entry; the fan load at the step's
+//! end, solved with it ([`Role::SpeedLoad`]); brush drop and
 //! friction as dead zones, whose stuck state is frozen while the other advances with its
 //! own exact first-order step (see the module doc of [`super`]).
 
 use super::{sign, Compensated, Simulator};
 use crate::capacity::FULL;
-use crate::model::effects::{brush_drop, tacho_ripple, Held, Role, StepState, ROLES, SWITCHES};
+use crate::model::effects::{
+    brush_drop, quadratic_load, tacho_ripple, Held, Role, StepState, ROLES, SWITCHES,
+};
 use crate::param_id::ParamId;
 
 /// A dead zone on a state that may stick at zero (shaft speed under friction, current under
@@ -55,16 +58,22 @@ impl Simulator {
     pub(super) fn step_with_effects(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         let i0 = self.current.hi;
         let w0 = self.omega.hi;
-        // The entries' held inputs (armature reaction, fan load, bridge dead time), in
+        // The entries' held inputs (armature reaction, bridge dead time, the drive's current
+        // limit, cogging), in
         // catalogue order; none on a board, whose simulator holds no such entry.
         let (mut volts, mut load) = (v, tl);
         if FULL {
             let (held, at) = (
                 Held(&self.held),
                 StepState {
+                    volts: v,
+                    // Paper Eq. 1 with the rotor held: `ae = e^{-Ra dt/La} - 1`,
+                    // `ge = -ae / Ra` (discretise.rs).
+                    ra: -self.disc.ae / self.disc.ge,
                     kv: self.kv,
                     current: i0,
                     omega: w0,
+                    cogging_angle: self.cogging_psi.first().copied().unwrap_or(0.0),
                 },
             );
             for (e, role) in ROLES.iter().enumerate() {
@@ -113,6 +122,9 @@ impl Simulator {
             (false, true) => self.mechanical_update(w0, load),
             (false, false) => {}
         }
+        if shaft_moves {
+            self.speed_load_over_the_step(current_moves);
+        }
         if current_moves && vb > 0.0 {
             stick_on_crossing(i0, brush, &mut self.current, &mut self.current_stuck);
         }
@@ -130,7 +142,30 @@ impl Simulator {
             let rate = measured_omega.unwrap_or(0.5 * (w0 + self.omega.hi));
             let cycles = self.effect(ParamId::RippleCycles);
             self.psi = tacho_ripple::advance(self.psi, cycles, rate, self.dt);
+            let cogging = self.effect(ParamId::CogCycles);
+            if let Some(psi) = self.cogging_psi.first_mut() {
+                *psi = tacho_ripple::advance(*psi, cogging, rate, self.dt);
+            }
         }
         self.push_reading();
+    }
+
+    /// The entry of role [`Role::SpeedLoad`] (the fan load `kq w |w|`) over a step the shaft
+    /// turned: the load at the step's end, solved with the step (backward Euler on the load:
+    /// exact in the steady state, stable at any step). The step's linear response of the
+    /// speed to a held load is `gt[1]` (`gm` with no current), so `w1 = w + g kq w1 |w1|`
+    /// ([`quadratic_load::torque_at_step_end`]); the current takes the same load's `gt[0]`.
+    fn speed_load_over_the_step(&mut self, current_moves: bool) {
+        let kq = self.effect(ParamId::Kq);
+        if kq == 0.0 {
+            return;
+        }
+        let (gw, gi) = match current_moves {
+            true => (self.disc.gt[1], self.disc.gt[0]),
+            false => (self.disc.gm, 0.0),
+        };
+        let torque = quadratic_load::torque_at_step_end(kq, gw, self.omega.hi);
+        self.omega.add(gw * torque);
+        self.current.add(gi * torque);
     }
 }

@@ -267,3 +267,139 @@ fn a_current_offset_shifts_the_current_reading_only() {
         assert_eq!(a.reading().current + 0.25, b.reading().current);
     }
 }
+
+#[test]
+fn a_current_limit_holds_the_current_flat_at_imax_and_the_speed_follows_its_torque() {
+    // Paper motor at 20 V from rest: a start current of 20 / 3.412 = 5.9 A against a limit
+    // of 2 A, which holds until the back-EMF takes over at (20 - 3.412 x 2) / 0.1604 rad/s.
+    let (ra, la, j, b, kv) = (3.412f64, 0.0573f64, 0.0424f64, 0.00267f64, 0.1604f64);
+    let (volts, imax) = (20.0f64, 2.0f64);
+    let p = ModelParams::motor(ra as f32, la as f32, j as f32, b as f32, kv as f32)
+        .with(ParamId::Imax, imax as f32);
+    let dt = 1e-3;
+    let mut sim = Simulator::new(&p, dt, InitialState::REST).unwrap();
+    // Its own reference: Euler steps of 1 µs with the clamp of the voltage evaluated at
+    // every step (paper Eq. 1 and 4).
+    let (mut i, mut w) = (0.0f64, 0.0f64);
+    let fine = 1000;
+    let h = dt as f64 / fine as f64;
+    for k in 1..=5000 {
+        sim.advance(volts as f32, 0.0);
+        for _ in 0..fine {
+            let emf = kv * w;
+            let applied = volts.clamp(emf - ra * imax, emf + ra * imax);
+            let di = (applied - ra * i - kv * w) / la;
+            let dw = (kv * i - b * w) / j;
+            i += h * di;
+            w += h * dw;
+        }
+        let r = sim.reading();
+        assert!(r.current <= imax as f32 * 1.0005, "step {k}: {}", r.current);
+        if k >= 200 {
+            // Flat-topped: La/Ra is 17 ms, so after 0.2 s the current sits at the limit.
+            assert!(
+                (r.current / imax as f32 - 1.0).abs() < 1e-3,
+                "step {k}: {}",
+                r.current
+            );
+        }
+        assert!(
+            (r.omega as f64 - w).abs() <= 2e-3 * w.max(1.0),
+            "step {k}: {} vs {w}",
+            r.omega
+        );
+    }
+    // The speed after 5 s is that of the limit's torque, far below the unlimited motor's.
+    let unlimited = settled(&ModelParams::PAPER_MOTOR, 20.0, 5.0);
+    assert!(
+        sim.reading().omega < 0.7 * unlimited,
+        "{} vs {unlimited}",
+        sim.reading().omega
+    );
+}
+
+#[test]
+fn cogging_ripples_the_speed_with_the_shaft_angle_as_an_independent_integration_does() {
+    // Paper motor at 3 V with a detent torque of 0.01 N m at 12 per revolution: at its
+    // steady speed (about 16 rad/s) the detents pass at 31 Hz and ripple the speed.
+    let (ra, la, j, b, kv) = (3.412f64, 0.0573f64, 0.0424f64, 0.00267f64, 0.1604f64);
+    let (volts, amp, cycles, phase) = (3.0f64, 0.01f64, 12.0f64, 0.3f64);
+    let motor = ModelParams::motor(ra as f32, la as f32, j as f32, b as f32, kv as f32);
+    let p = motor
+        .with(ParamId::CogAmp, amp as f32)
+        .with(ParamId::CogCycles, cycles as f32)
+        .with(ParamId::CogPhase, phase as f32);
+    let dt = 1e-4;
+    let (mut sim, mut plain) = (
+        Simulator::new(&p, dt, InitialState::REST).unwrap(),
+        Simulator::new(&motor, dt, InitialState::REST).unwrap(),
+    );
+    // Its own reference: Euler steps of 1 µs of paper Eq. 1 and 4 with the detent torque
+    // at the integrated angle.
+    let (mut i, mut w, mut theta) = (0.0f64, 0.0f64, 0.0f64);
+    let fine = 100;
+    let h = dt as f64 / fine as f64;
+    let (mut gap, mut low, mut high) = (0.0f64, f32::INFINITY, f32::NEG_INFINITY);
+    for k in 1..=40_000 {
+        sim.advance(volts as f32, 0.0);
+        plain.advance(volts as f32, 0.0);
+        for _ in 0..fine {
+            let cog = amp * (cycles * theta + phase).sin();
+            let di = (volts - ra * i - kv * w) / la;
+            let dw = (kv * i - b * w - cog) / j;
+            i += h * di;
+            w += h * dw;
+            theta += h * w;
+        }
+        gap = gap.max((sim.omega() as f64 - w).abs());
+        if k > 39_000 {
+            // The last 0.1 s: a few detent periods, over which the mean gap barely moves.
+            let d = sim.omega() - plain.omega();
+            (low, high) = (low.min(d), high.max(d));
+        }
+    }
+    // Within 1 % of the top speed of the independent integration, over 4 s.
+    assert!(gap < 0.01 * w, "{gap} vs {w}");
+    // The ripple the detents leave at speed w: J d(dw)/dt = -amp sin(cycles theta + phase),
+    // so an amplitude of amp / (J cycles w) (the back-EMF's damping acts over seconds).
+    let expected = (amp / (j * cycles * w)) as f32;
+    let ripple = 0.5 * (high - low);
+    assert!(
+        (ripple / expected - 1.0).abs() < 0.3,
+        "{ripple} vs {expected}"
+    );
+}
+
+#[test]
+fn a_fan_load_at_a_coarse_step_slows_the_shaft_without_swinging_it() {
+    // The case proptest found: a light rotor (1e-3 kg m^2) with a fan load at 117 Hz. Held
+    // at its starting speed, the load reversed the shaft within a step and swung it further
+    // each step (infinite by step 12). Taken at the step's end, solved with the step, it
+    // slows the shaft to its steady speed.
+    let p = ModelParams::motor(0.5, 0.01, 0.001, 0.0005, 1.0438269).with(ParamId::Kq, 8.88e-4);
+    let dt = 1.0 / 116.79374;
+    let exp = Experiment {
+        profile: Profile::Start,
+        voltage: 220.0,
+        duration: 600.0 * dt,
+        load_torque: 0.5,
+    };
+    let mut sim = Simulator::new(&p, dt, InitialState::REST).unwrap();
+    let mut last = 0.0f32;
+    for k in 0..600 {
+        let input = exp.at(k as f32 * dt);
+        sim.advance(input.v, input.tl);
+        let w = sim.omega();
+        assert!(w.is_finite() && w >= 0.0, "step {k}: {w}");
+        last = w;
+    }
+    // At 220 V the steady state balances kv i = kq w^2 + B w with i = (v - kv w) / ra:
+    // kq w^2 + (B + kv^2 / ra) w - kv v / ra = 0.
+    let (ra, kv, kq, b, v) = (0.5f64, 1.0438269f64, 8.88e-4f64, 0.0005f64, 220.0f64);
+    let (qa, qb, qc) = (kq, b + kv * kv / ra, -kv * v / ra);
+    let steady = (-qb + (qb * qb - 4.0 * qa * qc).sqrt()) / (2.0 * qa);
+    assert!(
+        (last as f64 / steady - 1.0).abs() < 0.01,
+        "{last} vs {steady}"
+    );
+}

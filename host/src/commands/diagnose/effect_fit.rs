@@ -3,36 +3,85 @@
 //! (`fit_effect`). Used by the search ([`super::search`]).
 
 use super::data::Data;
-use super::spectrum::OrderPeak;
+use super::data::Trace;
+use super::spectrum::{order_fit, order_peak, OrderPeak, Shape};
 use crate::fit::{fit_from, refit_from, Fit, FitOptions};
 use anyhow::{anyhow, Result};
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::{ModelParams, ParamId};
 
+/// The order spectra's peaks of the baseline's residual that start the angle effects' fits.
+#[derive(Clone, Copy, Debug)]
+pub struct Peaks {
+    /// The tacho ripple's ([`Shape::Ripple`]).
+    pub ripple: OrderPeak,
+    /// Cogging's detents per revolution, when the user gives them (`--fix cog_cycles=N`):
+    /// its speed ripple is too weak to find the order in the residual (static friction
+    /// mimics the detents' hold at a start; a search over orders picks a trend's at order
+    /// 1), so that the diagnosis tries cogging only when told.
+    pub detents: Option<u32>,
+    /// Cogging's fit at those detents ([`Shape::Cogging`]).
+    pub cogging: OrderPeak,
+}
+
+impl Peaks {
+    /// The peaks of the baseline's residual `traces` for the user's problem `spec`.
+    pub fn of(traces: &[Trace], spec: &ProblemSpec) -> Peaks {
+        let id = ParamId::CogCycles.index();
+        let detents = match spec.free[id] {
+            false => Some(spec.base.get(ParamId::CogCycles))
+                .filter(|n| *n >= 1.0)
+                .map(|n| n.round() as u32),
+            true => None,
+        };
+        let none = OrderPeak {
+            order: 1,
+            share: 0.0,
+            amp: 0.0,
+            phase: 0.0,
+        };
+        Peaks {
+            ripple: order_peak(traces, Shape::Ripple),
+            detents,
+            cogging: detents
+                .and_then(|n| order_fit(traces, Shape::Cogging, n))
+                .unwrap_or(none),
+        }
+    }
+}
+
 /// `spec` with `effect` free within bounds scaled to `base`, and the effect it extends with
-/// it (user bounds or fixes on their parameters are kept); for the tacho ripple the number of cycles is the order found in the
-/// residual, held fixed (the phase and amplitude are fitted).
+/// it (user bounds or fixes on their parameters are kept); for the tacho ripple and cogging
+/// the number of cycles is the order found in the residual ([`Peaks`]), held fixed (the
+/// phase and amplitude are fitted).
 pub fn with_effect(
     spec: &ProblemSpec,
     effect: Effect,
     base: &ModelParams,
     scales: &Scales,
-    order: u32,
+    peaks: &Peaks,
 ) -> Result<ProblemSpec> {
     let mut s = *spec;
     s.base = *base;
     let own = effect.bounds(base, scales);
     let parents = effect.parent().map(|p| p.bounds(base, scales));
     for (id, lo, hi) in own.into_iter().chain(parents.into_iter().flatten()) {
-        if id == ParamId::RippleCycles {
-            if spec.free[id.index()] {
+        let order = match id {
+            ParamId::RippleCycles => Some(peaks.ripple.order),
+            ParamId::CogCycles => Some(peaks.cogging.order),
+            _ => None,
+        };
+        let user_fixed = !spec.free[id.index()] && spec.base.get(id) != 0.0;
+        if let Some(order) = order {
+            // The user's bounds stand, and cogging's detents per revolution when given
+            // (`ripple_cycles` is 1 when not given, so a value there is no sign of a user's).
+            if spec.free[id.index()] || (id == ParamId::CogCycles && user_fixed) {
                 continue;
             }
             s.fix(id, order as f32).map_err(|e| anyhow!("{e}"))?;
             continue;
         }
-        let user_fixed = !spec.free[id.index()] && spec.base.get(id) != 0.0;
         if user_fixed || spec.free[id.index()] {
             continue;
         }
@@ -45,21 +94,33 @@ pub fn with_effect(
 
 /// Fit `spec` (an effect added to the model in `spec.base`) in two stages: the effect's
 /// parameters alone with everything else held at `base` (a global search of one to three
-/// dimensions, started for the ripple from the order spectrum's amplitude and phase), then
-/// everything free from there by least squares (the start lies in the basin already).
+/// dimensions, started for the ripple and for cogging from the order spectrum's amplitude
+/// and phase), then everything free from there by least squares (the start lies in the
+/// basin already).
 pub fn fit_effect(
     data: &Data,
     opts: &FitOptions,
     spec: &ProblemSpec,
     effect: Effect,
-    ripple: &OrderPeak,
+    peaks: &Peaks,
 ) -> Result<Fit> {
     // The spec's base holds the model to add the effect to, and the effect's fixed values.
     let mut start = spec.base;
     if effect == Effect::TachoRipple {
         let (lo, hi) = spec.bounds[ParamId::RippleAmp.index()];
-        start.set(ParamId::RippleAmp, (ripple.amp as f32).clamp(lo, hi));
-        start.set(ParamId::RipplePhase, ripple.phase as f32);
+        start.set(ParamId::RippleAmp, (peaks.ripple.amp as f32).clamp(lo, hi));
+        start.set(ParamId::RipplePhase, peaks.ripple.phase as f32);
+    }
+    if effect == Effect::Cogging {
+        // The speed ripple of a detent torque `A sin(n theta + phi)` is
+        // `A / (J n w) cos(n theta + phi)` (paper Eq. 4 over one detent period): the
+        // spectrum's amplitude times J n is A, and its phase less a quarter turn is phi.
+        let peak = &peaks.cogging;
+        let (lo, hi) = spec.bounds[ParamId::CogAmp.index()];
+        let torque = peak.amp * start.get(ParamId::J) as f64 * peak.order as f64;
+        start.set(ParamId::CogAmp, (torque as f32).clamp(lo, hi));
+        let phase = (peak.phase - std::f64::consts::FRAC_PI_2).rem_euclid(std::f64::consts::TAU);
+        start.set(ParamId::CogPhase, phase as f32);
     }
     let mut alone = *spec;
     alone.base = start;

@@ -8,9 +8,9 @@
 //! final model without it.
 
 use super::data::{Data, Scored};
-use super::effect_fit::{fit_effect, with_effect};
+use super::effect_fit::{fit_effect, with_effect, Peaks};
 use super::regimes::{self, WhereReport};
-use super::spectrum::{order_peak, without_ripple, OrderPeak};
+use super::spectrum::without_ripple;
 use super::verdict::{significant, Holdout};
 use crate::fit::{fit_spec, refit_from, FitOptions};
 use anyhow::Result;
@@ -89,14 +89,15 @@ impl Search {
 }
 
 /// What every fit of the search shares: the records, the quiet fit options, the user's
-/// problem, the baseline's parameters and scales, and the ripple's order peak.
+/// problem, the baseline's parameters and scales, and the order peaks of a ripple and of
+/// cogging.
 struct Context<'a> {
     data: &'a Data,
     quiet: FitOptions,
     spec: ProblemSpec,
     base_params: ModelParams,
     scales: Scales,
-    ripple: OrderPeak,
+    peaks: Peaks,
 }
 
 impl Context<'_> {
@@ -106,7 +107,7 @@ impl Context<'_> {
         let mut s = self.spec;
         s.base = *start;
         for e in set {
-            s = with_effect(&s, *e, start, &self.scales, self.ripple.order)?;
+            s = with_effect(&s, *e, start, &self.scales, &self.peaks)?;
         }
         Ok(s)
     }
@@ -136,14 +137,9 @@ impl Context<'_> {
 
     /// `effect` added to the model `model` fitted at `at` ([`fit_effect`]), and scored.
     fn add(&self, model: &ProblemSpec, effect: Effect, at: &ModelParams) -> Result<Scored> {
-        let s = with_effect(model, effect, at, &self.scales, self.ripple.order)?;
-        self.data.score(fit_effect(
-            self.data,
-            &self.quiet,
-            &s,
-            effect,
-            &self.ripple,
-        )?)
+        let s = with_effect(model, effect, at, &self.scales, &self.peaks)?;
+        self.data
+            .score(fit_effect(self.data, &self.quiet, &s, effect, &self.peaks)?)
     }
 
     /// The model of `set` fitted on the training records from `start`, and scored.
@@ -193,7 +189,8 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     let base_params = baseline.fit.result.params;
     let traces = data.traces(&base_params)?;
     let where_ = regimes::analyse(&traces, baseline.fit.result.sigma_omega);
-    let ripple = order_peak(&traces);
+    let peaks = Peaks::of(&traces, &spec);
+    let ripple = peaks.ripple;
     // The held-out noise floor, unless a ripple at the residual's order hides it: the noise
     // estimate reads a ripple above 0.15 cycles per sample as noise (2.7 % at 8 per
     // revolution read 0.37 rad/s of noise for 0.2). Both are upper bounds of the noise
@@ -209,7 +206,6 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             .min(pooled_sigma(cleaned.iter().map(Vec::as_slice))),
         signal_rms: data.holdout_rms(),
     };
-    let order = ripple.order;
     let scales = data.scales(&base_params);
     let cx = Context {
         data,
@@ -217,14 +213,16 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         spec,
         base_params,
         scales,
-        ripple,
+        peaks,
     };
 
     // Which: every effect of the catalogue the records can show, refitted on the training
     // records.
+    // (Cogging only when told its detents per revolution, above.)
     let usable: Vec<Effect> = Effect::ALL
         .into_iter()
         .filter(|e| (data.with_current || !e.needs_current()) && !without.contains(e))
+        .filter(|e| *e != Effect::Cogging || peaks.detents.is_some())
         .collect();
     let mut scored: Vec<(Effect, Scored)> = Vec::new();
     let fits = in_parallel(usable.len(), |k| {
@@ -267,7 +265,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     // Forward: more effects, one at a time, on what is left after the ones named so far.
     let mut chain: Vec<(Effect, Scored)> = vec![(first, first_fit)];
     let mut in_model = vec![first];
-    let mut model = with_effect(&spec, first, &base_params, &scales, order)?;
+    let mut model = with_effect(&spec, first, &base_params, &scales, &peaks)?;
     loop {
         let (_, last) = chain.last().expect("the chain holds the first effect");
         let params = last.fit.result.params;
@@ -303,7 +301,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             }
         }
         let Some((effect, f)) = best else { break };
-        model = with_effect(&model, effect, &params, &scales, order)?;
+        model = with_effect(&model, effect, &params, &scales, &peaks)?;
         in_model.push(effect);
         chain.push((effect, f));
     }

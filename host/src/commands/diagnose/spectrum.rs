@@ -1,7 +1,39 @@
 //! The order spectrum of the baseline's residual against rotor angle: a peak at a fixed
-//! number of cycles per revolution scales with speed, the tacho ripple's signature.
+//! number of cycles per revolution that scales with speed is the tacho ripple's signature;
+//! one that falls as the speed rises is cogging's (a detent torque's speed ripple,
+//! `cog_amp / (J cycles w)`).
 
 use super::data::{peak, Trace};
+
+/// How a ripple's size goes with the speed `w`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// `w amp sin(order theta + phase)`: the tacho ripple (a reading modulated with angle).
+    Ripple,
+    /// `amp sin(order theta + phase) / w`: cogging (a torque modulated with angle, filtered
+    /// by the inertia: `amp` is `cog_amp / (J order)`).
+    Cogging,
+}
+
+impl Shape {
+    /// Share of the record's top speed below which samples are left out: the angle barely
+    /// moves there. Cogging shows mostly at low speed (its ripple falls as 1 / w), so it
+    /// keeps samples down to a hundredth of the top speed.
+    fn slowest(self) -> f64 {
+        match self {
+            Shape::Ripple => 0.1,
+            Shape::Cogging => 0.01,
+        }
+    }
+
+    /// The ripple's size at speed `w` for a unit amplitude.
+    fn at(self, w: f64) -> f64 {
+        match self {
+            Shape::Ripple => w,
+            Shape::Cogging => 1.0 / w,
+        }
+    }
+}
 
 /// The strongest ripple of the residual against rotor angle.
 #[derive(Clone, Copy, Debug)]
@@ -10,64 +42,90 @@ pub struct OrderPeak {
     pub order: u32,
     /// Share of the residual's energy it explains.
     pub share: f64,
-    /// Relative amplitude of `w * amp * sin(order * theta + phase)`.
+    /// Amplitude of `shape(w) amp sin(order theta + phase)`.
     pub amp: f64,
     /// Phase [rad], in [0, 2 pi).
     pub phase: f64,
 }
 
-/// Order spectrum of the residual against rotor angle (integrated baseline speed): for each
+/// Order spectrum of the residual against rotor angle (integrated speed): for each
 /// order in 1..=64 cycles per revolution, the least-squares fit of
-/// `r = w (a sin + b cos)(order theta)` (the tacho ripple's signature); the order that
-/// explains most of the residual's energy.
-pub fn order_peak(traces: &[Trace]) -> OrderPeak {
-    let mut best = OrderPeak {
-        order: 1,
-        share: 0.0,
-        amp: 0.0,
-        phase: 0.0,
-    };
-    let mut total = 0.0f64;
-    let mut used = 0usize;
-    // Samples turning faster than 10 % of the top speed, their angle and relative residual.
-    let mut samples: Vec<(f64, f64, f64)> = Vec::new();
-    for t in traces {
-        let wmax = peak(&t.omega);
-        let mut theta = 0.0f64;
-        for k in 0..t.omega.len() {
-            let w = t.omega[k] as f64;
-            if w.abs() > 0.1 * wmax as f64 {
-                samples.push((theta, t.residual[k] as f64, w));
-                total += (t.residual[k] as f64).powi(2);
-                used += 1;
+/// `r = shape(w) (a sin + b cos)(order theta)` ([`order_fit`]); the order that explains
+/// most of the residual's energy.
+pub fn order_peak(traces: &[Trace], shape: Shape) -> OrderPeak {
+    let samples = Samples::of(traces, shape);
+    (1..=64u32)
+        .filter_map(|order| samples.fit(shape, order))
+        .fold(None, |best: Option<OrderPeak>, p| match best {
+            Some(b) if b.share >= p.share => Some(b),
+            _ => Some(p),
+        })
+        .unwrap_or(OrderPeak {
+            order: 1,
+            share: 0.0,
+            amp: 0.0,
+            phase: 0.0,
+        })
+}
+
+/// The least-squares fit of `r = shape(w) (a sin + b cos)(order theta)` at one `order`
+/// (cogging's, when the user gives it: on the reference plant's records its ripple lies
+/// under the noise, and the largest share is a trend's, at order 1), `None` when the records
+/// turn too little.
+pub fn order_fit(traces: &[Trace], shape: Shape, order: u32) -> Option<OrderPeak> {
+    Samples::of(traces, shape).fit(shape, order)
+}
+
+/// The samples an order spectrum fits: turning faster than [`Shape::slowest`] of the
+/// record's top speed (the angle barely moves below, and cogging's `1 / w` grows without
+/// bound), each as (angle, residual, speed), and the residual's energy over them.
+struct Samples {
+    points: Vec<(f64, f64, f64)>,
+    total: f64,
+}
+
+impl Samples {
+    fn of(traces: &[Trace], shape: Shape) -> Samples {
+        let mut points = Vec::new();
+        let mut total = 0.0f64;
+        for t in traces {
+            let wmax = peak(&t.omega);
+            let mut theta = 0.0f64;
+            for k in 0..t.omega.len() {
+                // Cogging lives where the baseline turns while the detents hold or jerk the
+                // shaft: its angle and size follow the measured speed; the ripple's the
+                // baseline's (a reading modulated at the model's own speed).
+                let w = match shape {
+                    Shape::Ripple => t.omega[k] as f64,
+                    Shape::Cogging => (t.omega[k] + t.residual[k]) as f64,
+                };
+                if w.abs() > shape.slowest() * wmax as f64 {
+                    points.push((theta, t.residual[k] as f64, w));
+                    total += (t.residual[k] as f64).powi(2);
+                }
+                theta += w * t.dt as f64;
             }
-            theta += w * t.dt as f64;
         }
+        Samples { points, total }
     }
-    if used < 16 || total <= 0.0 {
-        return best;
-    }
-    for order in 1..=64u32 {
-        // Least-squares fit of r = w (a sin + b cos)(order theta): the ripple model.
-        let Some(SinCos { a, b, explained }) = fit_sin_cos(samples.iter().map(|&(theta, r, w)| {
+
+    fn fit(&self, shape: Shape, order: u32) -> Option<OrderPeak> {
+        if self.points.len() < 16 || self.total <= 0.0 {
+            return None;
+        }
+        let SinCos { a, b, explained } = fit_sin_cos(self.points.iter().map(|&(theta, r, w)| {
             let (s, c) = (order as f64 * theta).sin_cos();
-            ((w * s, w * c), r)
-        })) else {
-            continue;
-        };
-        let share = explained / total;
-        if share > best.share {
-            // a sin + b cos = amp sin(x + phase) with a = amp cos(phase), b = amp sin(phase).
-            let phase = b.atan2(a).rem_euclid(std::f64::consts::TAU);
-            best = OrderPeak {
-                order,
-                share,
-                amp: a.hypot(b),
-                phase,
-            };
-        }
+            let size = shape.at(w);
+            ((size * s, size * c), r)
+        }))?;
+        // a sin + b cos = amp sin(x + phase) with a = amp cos(phase), b = amp sin(phase).
+        Some(OrderPeak {
+            order,
+            share: explained / self.total,
+            amp: a.hypot(b),
+            phase: b.atan2(a).rem_euclid(std::f64::consts::TAU),
+        })
     }
-    best
 }
 
 /// The least-squares fit of `r = a s + b c` over pairs `((s, c), r)`, and the sum of

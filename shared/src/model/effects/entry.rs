@@ -38,6 +38,10 @@ pub enum Role {
     /// with the effect's terms as inputs): an entry of this role needs nothing in the
     /// simulator but its function.
     HeldInputs(HeldFn),
+    /// A load torque that grows with the speed, taken at the step's end and solved with the
+    /// step (the fan load: held at the step's start, it swung a light rotor further each
+    /// step at a coarse one until it overflowed).
+    SpeedLoad,
     /// The shaft's dead zone of Coulomb friction, which the simulator's friction path takes
     /// alone.
     ShaftDeadZone,
@@ -75,12 +79,19 @@ pub type HeldFn = fn(&Held, &StepState) -> HeldInputs;
 /// The state at the start of a step that held inputs read.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StepState {
+    /// Armature voltage commanded over the step [V] (the record's).
+    pub volts: f32,
+    /// Armature resistance Ra [ohm].
+    pub ra: f32,
     /// Back-EMF / torque constant Kv [V s/rad].
     pub kv: f32,
     /// Armature current [A].
     pub current: f32,
     /// Shaft speed [rad/s].
     pub omega: f32,
+    /// `cog_cycles theta`, wrapped to [-pi, pi] (the shaft angle `theta` from the record's
+    /// start; 0 when cogging is off).
+    pub cogging_angle: f32,
 }
 
 /// Voltage and load torque an effect adds to a step's inputs.

@@ -1,7 +1,7 @@
 //! `quadratic_load`: a fan or pump load whose torque grows with the square of the speed,
 //! `kq w |w|`, added to the load of paper Eq. 4.
 
-use super::entry::{ids, one, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
+use super::entry::{ids, one, EffectSpec, Role, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -31,7 +31,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus speed*|speed|",
         at: |x| -x.omega * x.omega.abs(),
     }),
-    role: Role::HeldInputs(held),
+    role: Role::SpeedLoad,
 };
 
 /// Its load torque at speed `w`, held over a step.
@@ -40,10 +40,21 @@ pub fn torque(kq: f32, w: f32) -> f32 {
     kq * w * w.abs()
 }
 
-/// Its held inputs: the load torque at the step's starting speed.
-fn held(h: &Held, x: &StepState) -> HeldInputs {
-    HeldInputs {
-        volts: 0.0,
-        load: torque(h.get(ParamId::Kq), x.omega),
+
+
+/// The load at a step's end, `kq w1 |w1|`, where the speed at the end solves
+/// `w1 = w + g kq w1 |w1|`, with `w` the step's end without the load and `g < 0` the speed
+/// one newton-metre held over the step takes. `w1` keeps the sign of `w` (the load only
+/// slows the shaft) and `|w1| = 2 |w| / (sqrt(1 + 4 a |w|) + 1)` with `a = -g kq` (the root
+/// of `a w1^2 + w1 = |w|`, written without cancellation). The load, not the speed, is
+/// returned: `w1 - w` is a rounding of `w` where the load is small, while the load keeps
+/// its relative precision (a fit's finite differences in `kq` see it).
+#[inline(always)]
+pub fn torque_at_step_end(kq: f32, g: f32, w: f32) -> f32 {
+    let a = -g * kq;
+    if a <= 0.0 || w == 0.0 {
+        return torque(kq, w);
     }
+    let magnitude = 2.0 * w.abs() / (libm::sqrtf(1.0 + 4.0 * a * w.abs()) + 1.0);
+    torque(kq, magnitude.copysign(w))
 }
