@@ -16,6 +16,13 @@ use crate::param_id::PARAM_COUNT;
 /// The host's capacities (`full` feature, and this crate's tests) rather than the board's.
 pub const FULL: bool = cfg!(any(test, feature = "full"));
 
+/// Parameters a parameter set ([`crate::ModelParams`]) and a problem
+/// ([`crate::fit::space::ProblemSpec`]) hold, from the first in [`crate::ParamId`] order
+/// (host: all; board: the five motor parameters and `tc`, which is all a board fits: both
+/// are copied into many frames of an identification, and each parameter more costs its
+/// stack). A parameter a build does not hold reads as its default (off).
+pub const MODEL_PARAMS: usize = if FULL { PARAM_COUNT } else { 6 };
+
 /// Largest number of free parameters (host: every parameter of the model; board: the five
 /// motor parameters and `tc`).
 pub const MAX_FREE: usize = if FULL { PARAM_COUNT } else { 6 };

@@ -1,9 +1,10 @@
 //! The search space: which parameters are free, their bounds and scaling, and the map between
 //! the unit cube the optimisers work in and physical parameter values.
 
+use crate::capacity::MODEL_PARAMS;
 use crate::error::Error;
 use crate::model::params::ModelParams;
-use crate::param_id::{ParamId, PARAM_COUNT};
+use crate::param_id::ParamId;
 
 use crate::capacity::MAX_FREE;
 
@@ -20,12 +21,24 @@ pub enum Scale {
 /// Bounds and fixed values of every parameter: the user's description of the problem.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ProblemSpec {
-    /// Search bounds per parameter (indexed by [`ParamId::index`]).
-    pub bounds: [(f32, f32); PARAM_COUNT],
+    /// Search bounds per parameter (indexed by [`ParamId::index`]; the first
+    /// [`MODEL_PARAMS`]).
+    pub bounds: [(f32, f32); MODEL_PARAMS],
     /// Free (true) or held at `base` (false), per parameter.
-    pub free: [bool; PARAM_COUNT],
+    pub free: [bool; MODEL_PARAMS],
     /// Values of the parameters that are not free.
     pub base: ModelParams,
+}
+
+/// The parameters a problem holds ([`MODEL_PARAMS`]).
+const HELD: &[ParamId] = ParamId::ALL.split_at(MODEL_PARAMS).0;
+
+/// `id` is one this build's problems hold.
+fn held(id: ParamId) -> Result<(), Error> {
+    match id.index() < MODEL_PARAMS {
+        true => Ok(()),
+        false => Err(Error::EffectNotInBuild(id)),
+    }
 }
 
 /// A value `id` may be fixed at: finite, within its physical range.
@@ -40,9 +53,9 @@ fn check_fixed_value(id: ParamId, value: f32) -> Result<(), Error> {
 impl Default for ProblemSpec {
     /// The paper's problem: the five motor parameters free within Table 1, no effects.
     fn default() -> Self {
-        let mut bounds = [(0.0, 0.0); PARAM_COUNT];
-        let mut free = [false; PARAM_COUNT];
-        for id in ParamId::ALL {
+        let mut bounds = [(0.0, 0.0); MODEL_PARAMS];
+        let mut free = [false; MODEL_PARAMS];
+        for &id in HELD {
             bounds[id.index()] = id.default_bounds();
             free[id.index()] = id.is_motor();
         }
@@ -57,6 +70,7 @@ impl Default for ProblemSpec {
 impl ProblemSpec {
     /// Hold `id` at `value`.
     pub fn fix(&mut self, id: ParamId, value: f32) -> Result<(), Error> {
+        held(id)?;
         check_fixed_value(id, value)?;
         self.free[id.index()] = false;
         self.base.set(id, value);
@@ -65,6 +79,7 @@ impl ProblemSpec {
 
     /// Let `id` vary within `lo..hi`.
     pub fn set_bounds(&mut self, id: ParamId, lo: f32, hi: f32) -> Result<(), Error> {
+        held(id)?;
         let (plo, phi) = id.physical_range();
         if !(lo.is_finite() && hi.is_finite() && lo < hi && lo >= plo && hi <= phi) {
             return Err(Error::InvalidBound(id));
@@ -76,9 +91,12 @@ impl ProblemSpec {
         Ok(())
     }
 
-    /// Make `id` a free parameter within its current bounds.
+    /// Make `id` a free parameter within its current bounds (one this build does not hold
+    /// stays held at its default).
     pub fn free(&mut self, id: ParamId) {
-        self.free[id.index()] = true;
+        if let Some(f) = self.free.get_mut(id.index()) {
+            *f = true;
+        }
     }
 }
 
@@ -157,7 +175,7 @@ impl Space {
     #[inline(never)]
     pub fn new(spec: &ProblemSpec, log_scale: bool) -> Result<Space, Error> {
         let mut free = heapless::Vec::new();
-        for id in ParamId::ALL {
+        for &id in HELD {
             if !spec.free[id.index()] {
                 continue;
             }

@@ -1,8 +1,9 @@
 //! A full parameter set: the five motor parameters of paper Eq. 1-5 and the parameters of the
 //! optional effects, with their validation.
 
+use crate::capacity::MODEL_PARAMS;
 use crate::error::Error;
-use crate::param_id::{ParamId, ParamSpec, PARAM_COUNT};
+use crate::param_id::{ParamId, ParamSpec};
 use serde::{Deserialize, Serialize};
 
 /// The five motor parameters of paper Eq. 1-5: units, paper's Table 1 bounds, and the
@@ -39,7 +40,18 @@ const fn motor_spec(
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ModelParams {
-    values: [f32; PARAM_COUNT],
+    /// The first [`MODEL_PARAMS`] parameters in [`ParamId`] order (all on the host); the
+    /// others read as their default.
+    values: [f32; MODEL_PARAMS],
+}
+
+/// The value a parameter reads when it is not set: 0 (off), and one ripple cycle per
+/// revolution.
+const fn default_value(id: ParamId) -> f32 {
+    match id {
+        ParamId::RippleCycles => 1.0,
+        _ => 0.0,
+    }
 }
 
 impl ModelParams {
@@ -49,24 +61,36 @@ impl ModelParams {
 
     /// A linear motor without effects.
     pub const fn motor(ra: f32, la: f32, j: f32, b: f32, kv: f32) -> ModelParams {
-        let mut values = [0.0; PARAM_COUNT];
+        let mut values = [0.0; MODEL_PARAMS];
+        let mut k = 0;
+        while k < MODEL_PARAMS {
+            values[k] = default_value(ParamId::ALL[k]);
+            k += 1;
+        }
         values[0] = ra;
         values[1] = la;
         values[2] = j;
         values[3] = b;
         values[4] = kv;
-        values[ParamId::RippleCycles as usize] = 1.0;
         ModelParams { values }
     }
 
-    /// Value of one parameter.
+    /// Value of one parameter (its default for one this build does not hold).
+    #[inline(always)]
     pub fn get(&self, id: ParamId) -> f32 {
-        self.values[id.index()]
+        match self.values.get(id.index()) {
+            Some(v) => *v,
+            None => default_value(id),
+        }
     }
 
-    /// Set one parameter.
+    /// Set one parameter. A parameter this build does not hold ([`MODEL_PARAMS`]: a board's
+    /// are the five and `tc`) keeps its default; a problem refuses to fix or bound one
+    /// ([`crate::Error::EffectNotInBuild`]).
     pub fn set(&mut self, id: ParamId, value: f32) {
-        self.values[id.index()] = value;
+        if let Some(v) = self.values.get_mut(id.index()) {
+            *v = value;
+        }
     }
 
     /// Builder form of [`ModelParams::set`].
