@@ -19,7 +19,8 @@ use crate::error::Error;
 use crate::model::discretise::Discrete;
 use crate::model::effects::friction::FrictionLaw;
 use crate::model::effects::{
-    current_offset, sensor_delay, tacho_ripple, Role, EFFECT_COUNT, ROLES, SWITCHES,
+    current_offset, sensor_delay, tacho_ripple, BEYOND_COULOMB, SHAFT_DEAD_ZONE, SHAFT_FRICTION,
+    SWITCHES,
 };
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
@@ -104,29 +105,6 @@ pub(crate) fn sign(x: f32) -> f32 {
         0.0
     }
 }
-
-/// The entries whose role satisfies `acts`, as a bit per entry in catalogue order.
-macro_rules! role_mask {
-    ($acts:expr) => {{
-        let mut mask = 0u32;
-        let mut e = 0;
-        while e < EFFECT_COUNT {
-            if $acts(&ROLES[e]) {
-                mask |= 1 << e;
-            }
-            e += 1;
-        }
-        mask
-    }};
-}
-
-/// Entries that act on the shaft's friction.
-const SHAFT_FRICTION: u32 = role_mask!(Role::shaft_friction);
-/// Entries beyond what the Coulomb friction path takes.
-const BEYOND_COULOMB: u32 = role_mask!(Role::beyond_coulomb);
-/// The shaft's dead zone of Coulomb friction.
-const SHAFT_DEAD_ZONE: u32 = role_mask!(Role::shaft_dead_zone);
-const _: () = assert!(EFFECT_COUNT <= 32, "one bit per entry");
 
 /// One slot on the host, none on a board ([`crate::capacity::FULL`]).
 const HOST_SLOT: usize = FULL as usize;

@@ -193,6 +193,30 @@ pub const ROLES: [Role; EFFECT_COUNT] = {
     out
 };
 
+/// The entries whose role satisfies `acts`, as a bit per entry in catalogue order.
+macro_rules! role_mask {
+    ($acts:expr) => {{
+        let mut mask = 0u32;
+        let mut e = 0;
+        while e < EFFECT_COUNT {
+            if $acts(&ROLES[e]) {
+                mask |= 1 << e;
+            }
+            e += 1;
+        }
+        mask
+    }};
+}
+
+/// Entries that act on the shaft's friction (the simulator's flags read these masks
+/// against the entries that are on).
+pub const SHAFT_FRICTION: u32 = role_mask!(Role::shaft_friction);
+/// Entries beyond what the Coulomb friction path takes.
+pub const BEYOND_COULOMB: u32 = role_mask!(Role::beyond_coulomb);
+/// The shaft's dead zone of Coulomb friction.
+pub const SHAFT_DEAD_ZONE: u32 = role_mask!(Role::shaft_dead_zone);
+const _: () = assert!(EFFECT_COUNT <= 32, "one bit per entry");
+
 /// The parameter that switches each effect on (its first; non-zero: on), in catalogue order.
 pub const SWITCHES: [ParamId; EFFECT_COUNT] = {
     let mut out = [ParamId::Tc; EFFECT_COUNT];
