@@ -113,3 +113,16 @@ macro_rules! catalogue_table {
 }
 
 pub(crate) use catalogue_table;
+
+/// A list the table generated, as an array of its length (`N` is the list's length: a
+/// shorter array is a compile-time error).
+pub(crate) const fn listed<T: Copy, const N: usize>(list: &[T]) -> [T; N] {
+    assert!(list.len() == N, "an array of the list's length");
+    let mut out = [list[0]; N];
+    let mut k = 0;
+    while k < N {
+        out[k] = list[k];
+        k += 1;
+    }
+    out
+}

@@ -36,16 +36,7 @@ pub const PARAM_COUNT: usize = LISTED.len();
 
 impl ParamId {
     /// All parameters, in storage order.
-    pub const ALL: [ParamId; PARAM_COUNT] = {
-        let mut out = [ParamId::Ra; PARAM_COUNT];
-        let mut k = 0;
-        while k < PARAM_COUNT {
-            out[k] = LISTED[k];
-            assert!(LISTED[k] as usize == k);
-            k += 1;
-        }
-        out
-    };
+    pub const ALL: [ParamId; PARAM_COUNT] = crate::catalogue::listed(LISTED);
     /// The five motor parameters of paper Eq. 5, in the order (Ra, La, J, B, Kv).
     pub const MOTOR: [ParamId; 5] = [
         ParamId::Ra,

@@ -45,16 +45,16 @@ pub struct ModelParams {
     values: [f32; MODEL_PARAMS],
 }
 
-/// The value a parameter reads when it is not set: 0 (off), and one ripple cycle per
-/// revolution.
-const fn default_value(id: ParamId) -> f32 {
-    match id {
-        ParamId::RippleCycles => 1.0,
-        _ => 0.0,
-    }
-}
-
 impl ModelParams {
+    /// The value parameter `id` reads when it is not set: 0 (off), and one ripple cycle per
+    /// revolution.
+    pub const fn default_of(id: ParamId) -> f32 {
+        match id {
+            ParamId::RippleCycles => 1.0,
+            _ => 0.0,
+        }
+    }
+
     /// The paper's identified motor (Section 6): Ra 3.412, La 0.0573, J 0.0424,
     /// B 0.00267, Kv 0.1604.
     pub const PAPER_MOTOR: ModelParams = ModelParams::motor(3.412, 0.0573, 0.0424, 0.00267, 0.1604);
@@ -64,7 +64,7 @@ impl ModelParams {
         let mut values = [0.0; MODEL_PARAMS];
         let mut k = 0;
         while k < MODEL_PARAMS {
-            values[k] = default_value(ParamId::ALL[k]);
+            values[k] = ModelParams::default_of(ParamId::ALL[k]);
             k += 1;
         }
         values[0] = ra;
@@ -80,7 +80,7 @@ impl ModelParams {
     pub fn get(&self, id: ParamId) -> f32 {
         match self.values.get(id.index()) {
             Some(v) => *v,
-            None => default_value(id),
+            None => ModelParams::default_of(id),
         }
     }
 

@@ -19,8 +19,8 @@ use crate::error::Error;
 use crate::model::discretise::Discrete;
 use crate::model::effects::friction::FrictionLaw;
 use crate::model::effects::{
-    current_offset, sensor_delay, tacho_ripple, BEYOND_COULOMB, SHAFT_DEAD_ZONE, SHAFT_FRICTION,
-    SWITCHES,
+    current_offset, sensor_delay, tacho_ripple, Held, BEYOND_COULOMB, SHAFT_DEAD_ZONE,
+    SHAFT_FRICTION, SWITCHES,
 };
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
@@ -230,10 +230,7 @@ impl Simulator {
     /// Effect parameter `id` (0 for one this build does not hold: a constant).
     #[inline(always)]
     fn effect(&self, id: ParamId) -> f32 {
-        match self.held.get(id.index() - FIRST_HELD) {
-            Some(v) => *v,
-            None => 0.0,
-        }
+        Held(&self.held).get(id)
     }
 
     /// The shaft's friction law: the opposing torque for a motion in `direction` at speed

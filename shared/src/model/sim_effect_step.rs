@@ -67,9 +67,7 @@ impl Simulator {
                 Held(&self.held),
                 StepState {
                     volts: v,
-                    // Paper Eq. 1 with the rotor held: `ae = e^{-Ra dt/La} - 1`,
-                    // `ge = -ae / Ra` (discretise.rs).
-                    ra: -self.disc.ae / self.disc.ge,
+                    held_rotor: (self.disc.ae, self.disc.ge),
                     kv: self.kv,
                     current: i0,
                     omega: w0,

@@ -35,18 +35,12 @@ impl Peaks {
                 .map(|n| n.round() as u32),
             true => None,
         };
-        let none = OrderPeak {
-            order: 1,
-            share: 0.0,
-            amp: 0.0,
-            phase: 0.0,
-        };
         Peaks {
-            ripple: order_peak(traces, Shape::Ripple),
+            ripple: order_peak(traces),
             detents,
             cogging: detents
                 .and_then(|n| order_fit(traces, Shape::Cogging, n))
-                .unwrap_or(none),
+                .unwrap_or(OrderPeak::NONE),
         }
     }
 }
@@ -72,11 +66,11 @@ pub fn with_effect(
             ParamId::CogCycles => Some(peaks.cogging.order),
             _ => None,
         };
-        let user_fixed = !spec.free[id.index()] && spec.base.get(id) != 0.0;
+        let user_fixed = !spec.free[id.index()] && spec.base.get(id) != ModelParams::default_of(id);
         if let Some(order) = order {
-            // The user's bounds stand, and cogging's detents per revolution when given
-            // (`ripple_cycles` is 1 when not given, so a value there is no sign of a user's).
-            if spec.free[id.index()] || (id == ParamId::CogCycles && user_fixed) {
+            // The user's bounds or value stand (a motor's detents per revolution are on its
+            // datasheet); otherwise the order the residual shows.
+            if spec.free[id.index()] || user_fixed {
                 continue;
             }
             s.fix(id, order as f32).map_err(|e| anyhow!("{e}"))?;

@@ -3,7 +3,7 @@
 //! spectrum ([`super::spectrum`]).
 
 use super::data::{peak, Trace};
-use super::spectrum::{order_peak, OrderPeak, Shape};
+use super::spectrum::{order_peak, OrderPeak};
 use motor_id_shared::model::effects::{Effect, Signature, SignatureSample};
 use serde::Serialize;
 
@@ -301,7 +301,7 @@ pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
         })
         .collect();
     signatures.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let OrderPeak { order, share, .. } = order_peak(traces, Shape::Ripple);
+    let OrderPeak { order, share, .. } = order_peak(traces);
     let mut summary: Vec<String> = ranked
         .iter()
         .filter(|(ratio, _)| *ratio > 1.3)

@@ -48,24 +48,29 @@ pub struct OrderPeak {
     pub phase: f64,
 }
 
-/// Order spectrum of the residual against rotor angle (integrated speed): for each
-/// order in 1..=64 cycles per revolution, the least-squares fit of
-/// `r = shape(w) (a sin + b cos)(order theta)` ([`order_fit`]); the order that explains
-/// most of the residual's energy.
-pub fn order_peak(traces: &[Trace], shape: Shape) -> OrderPeak {
-    let samples = Samples::of(traces, shape);
+impl OrderPeak {
+    /// No ripple: order 1, nothing explained.
+    pub const NONE: OrderPeak = OrderPeak {
+        order: 1,
+        share: 0.0,
+        amp: 0.0,
+        phase: 0.0,
+    };
+}
+
+/// The tacho ripple's order spectrum of the residual against rotor angle (integrated
+/// speed): for each order in 1..=64 cycles per revolution, the least-squares fit of
+/// `r = w (a sin + b cos)(order theta)` ([`Shape::Ripple`]); the order that explains most
+/// of the residual's energy.
+pub fn order_peak(traces: &[Trace]) -> OrderPeak {
+    let samples = Samples::of(traces, Shape::Ripple);
     (1..=64u32)
-        .filter_map(|order| samples.fit(shape, order))
+        .filter_map(|order| samples.fit(Shape::Ripple, order))
         .fold(None, |best: Option<OrderPeak>, p| match best {
             Some(b) if b.share >= p.share => Some(b),
             _ => Some(p),
         })
-        .unwrap_or(OrderPeak {
-            order: 1,
-            share: 0.0,
-            amp: 0.0,
-            phase: 0.0,
-        })
+        .unwrap_or(OrderPeak::NONE)
 }
 
 /// The least-squares fit of `r = shape(w) (a sin + b cos)(order theta)` at one `order`

@@ -70,6 +70,6 @@ pub fn limited(h: &Held, x: &StepState) -> f32 {
     let imax = h.get(ParamId::Imax);
     let flux = flux_factor(h.get(ParamId::Kar), x.current);
     let emf = x.kv * flux * x.omega + h.get(ParamId::Vb) * sign(x.current);
-    let reach = x.ra * imax;
+    let reach = x.ra() * imax;
     x.volts.clamp(emf - reach, emf + reach)
 }

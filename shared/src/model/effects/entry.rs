@@ -81,8 +81,9 @@ pub type HeldFn = fn(&Held, &StepState) -> HeldInputs;
 pub struct StepState {
     /// Armature voltage commanded over the step [V] (the record's).
     pub volts: f32,
-    /// Armature resistance Ra [ohm].
-    pub ra: f32,
+    /// The step of paper Eq. 1 with the rotor held, `i += ae i + ge v`
+    /// ([`crate::model::discretise::Discrete`]): `(ae, ge)`, whose ratio is Ra ([`StepState::ra`]).
+    pub held_rotor: (f32, f32),
     /// Back-EMF / torque constant Kv [V s/rad].
     pub kv: f32,
     /// Armature current [A].
@@ -92,6 +93,14 @@ pub struct StepState {
     /// `cog_cycles theta`, wrapped to [-pi, pi] (the shaft angle `theta` from the record's
     /// start; 0 when cogging is off).
     pub cogging_angle: f32,
+}
+
+impl StepState {
+    /// Armature resistance Ra [ohm], from the held-rotor step: `ae = e^{-Ra dt/La} - 1`,
+    /// `ge = -ae / Ra` (computed when an entry asks, not on every step).
+    pub fn ra(&self) -> f32 {
+        -self.held_rotor.0 / self.held_rotor.1
+    }
 }
 
 /// Voltage and load torque an effect adds to a step's inputs.

@@ -79,15 +79,7 @@ const _: () = {
 
 impl Effect {
     /// The whole catalogue.
-    pub const ALL: [Effect; EFFECT_COUNT] = {
-        let mut out = [Effect::CoulombFriction; EFFECT_COUNT];
-        let mut k = 0;
-        while k < EFFECT_COUNT {
-            out[k] = LISTED[k];
-            k += 1;
-        }
-        out
-    };
+    pub const ALL: [Effect; EFFECT_COUNT] = crate::catalogue::listed(LISTED);
 
     /// Its entry.
     pub const fn spec(self) -> &'static EffectSpec {
@@ -226,15 +218,6 @@ pub const SWITCHES: [ParamId; EFFECT_COUNT] = {
         e += 1;
     }
     out
-};
-
-// Effect and CATALOGUE list the entries in the same order.
-const _: () = {
-    let mut k = 0;
-    while k < Effect::ALL.len() {
-        assert!(Effect::ALL[k] as usize == k);
-        k += 1;
-    }
 };
 
 impl ParamId {
