@@ -1,6 +1,7 @@
 //! Cheap explanations of a large misfit, tested on the fit itself before it is blamed on
-//! an unmodelled effect: a record whose input never changes, a parameter held at a bound
-//! of the search box, a sign inverted, a unit scaled.
+//! an unmodelled effect: a record whose input never changes, a sign inverted, a unit
+//! scaled, a record sampled too slowly for its input or its motor, a parameter held at a
+//! bound of the search box.
 //!
 //! A column read with the wrong sign or unit breaks paper Eq. 1-4's one constant `Kv`,
 //! which couples the back-EMF `Kv w` of the armature equation to the torque `Kv i` of the
@@ -13,6 +14,14 @@
 //! and an inverted speed by a negative gain the bounds refuse: only the sign is tried.)
 //! A time column in ms rescales La and J alone and fits as well, so it is not a misfit to
 //! explain.
+//!
+//! When no correction explains it, a record sampled too slowly is tried ([`sampling`]): a
+//! voltage rougher than its sampling (a PWM or PRBS logged below its switching, a fast
+//! record thinned to one row in K), or a fitted motor faster than the step whose misfit
+//! sits just after the voltage's changes. Only then a parameter held at a bound of the
+//! search box is named: a misfit of another cause drives parameters there too.
+
+mod sampling;
 
 use crate::csvio::OwnedRecord;
 use crate::fit::{fit_quick, Fit, FitOptions};
@@ -120,6 +129,17 @@ pub fn cheap_explanations(
     if !hints.is_empty() {
         // A column corrected explains it: parameters driven to the box's edge by the wrong
         // column say nothing more.
+        return Ok(hints);
+    }
+    // Else a record sampled too slowly: its voltage rougher than its sampling, or a motor
+    // faster than the step with the misfit just after the voltage's changes (the
+    // parameters it drives to a bound say nothing more either).
+    if let Some(h) = sampling::rough_input(records) {
+        hints.push(h);
+        return Ok(hints);
+    }
+    if let Some(h) = sampling::too_slow_sampling(records, given)? {
+        hints.push(h);
         return Ok(hints);
     }
     // Else a free parameter the fit left at a bound of the box: the motor may lie beyond

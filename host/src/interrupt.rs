@@ -4,9 +4,10 @@
 //! status 130, after removing the temporary files of the writes in progress
 //! ([`crate::output`]), so that an interrupted run leaves no hidden file behind.
 
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 
 /// Set by Ctrl-C while a command has taken the interrupt over.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -25,16 +26,25 @@ fn on_ctrl_c() {
         INTERRUPTED.store(true, Ordering::SeqCst);
         return;
     }
-    remove_temporary_files();
-    eprintln!("motor-id: interrupted");
-    std::process::exit(130);
-}
-
-fn remove_temporary_files() {
-    let files = TEMPORARY.lock().unwrap_or_else(|e| e.into_inner());
+    // The list stays locked until the end: a write cannot register (or complete) a file
+    // between its removal and the exit.
+    let files = temporary_files();
     for f in files.iter() {
         let _ = std::fs::remove_file(f);
     }
+    // On a terminal, the message replaces a progress bar's line instead of trailing it.
+    let clear = if std::io::stderr().is_terminal() {
+        "\r\x1b[2K"
+    } else {
+        ""
+    };
+    eprintln!("{clear}motor-id: interrupted");
+    std::process::exit(130);
+}
+
+/// The list of temporary files, locked (a panic elsewhere does not lose it).
+fn temporary_files() -> MutexGuard<'static, Vec<PathBuf>> {
+    TEMPORARY.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// From now on Ctrl-C sets the returned flag instead of ending the program: the caller
@@ -48,17 +58,34 @@ pub fn take_over() -> &'static AtomicBool {
 pub struct Registered(PathBuf);
 
 impl Registered {
-    /// Register `path` (a temporary file the caller removes itself on every other exit).
-    pub fn new(path: &Path) -> Registered {
-        let mut files = TEMPORARY.lock().unwrap_or_else(|e| e.into_inner());
-        files.push(path.to_path_buf());
-        Registered(path.to_path_buf())
+    /// Make a temporary file with `create` and register it (`path` names it), Ctrl-C held
+    /// off in between: an interrupt never finds the file made and not yet registered. The
+    /// caller removes the file itself on every other exit.
+    pub fn create<T, E>(
+        create: impl FnOnce() -> Result<T, E>,
+        path: impl FnOnce(&T) -> &Path,
+    ) -> Result<(T, Registered), E> {
+        let mut files = temporary_files();
+        let made = create()?;
+        let at = path(&made).to_path_buf();
+        files.push(at.clone());
+        Ok((made, Registered(at)))
+    }
+
+    /// Run `rename`, which gives the complete file its name, and unregister it, Ctrl-C held
+    /// off meanwhile: an interrupt finds the file either temporary (and removes it) or
+    /// complete under its name.
+    pub fn complete<R>(self, rename: impl FnOnce() -> R) -> R {
+        let mut files = temporary_files();
+        let done = rename();
+        files.retain(|f| *f != self.0);
+        done
     }
 }
 
 impl Drop for Registered {
     fn drop(&mut self) {
-        let mut files = TEMPORARY.lock().unwrap_or_else(|e| e.into_inner());
+        let mut files = temporary_files();
         if let Some(at) = files.iter().position(|f| *f == self.0) {
             files.swap_remove(at);
         }

@@ -7,6 +7,7 @@
 //! through, never replaced. A new file gets the user's umask (as `touch` would make it); a
 //! replaced one keeps its mode. [`check_paths`] checks every output before the work starts.
 
+use crate::interrupt::Registered;
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 use std::fs::{self, Permissions};
@@ -35,15 +36,25 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
         .extension()
         .map(|e| format!(".{}", e.to_string_lossy()))
         .unwrap_or_default();
-    let tmp = tempfile::Builder::new()
-        .prefix(".motor-id-")
-        .suffix(&suffix)
-        .permissions(Permissions::from_mode(mode))
-        .tempfile_in(directory_of(&target))
-        .map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
-    let _removed_on_ctrl_c = crate::interrupt::Registered::new(tmp.path());
-    write(tmp.path())?;
-    tmp.persist(&target)
+    let (tmp, removed_on_ctrl_c) = Registered::create(
+        || {
+            tempfile::Builder::new()
+                .prefix(".motor-id-")
+                .suffix(&suffix)
+                .permissions(Permissions::from_mode(mode))
+                .tempfile_in(directory_of(&target))
+        },
+        |tmp| tmp.path(),
+    )
+    .map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    if let Err(e) = write(tmp.path()) {
+        // Removed before it is unregistered: Ctrl-C in between still finds it.
+        drop(tmp);
+        drop(removed_on_ctrl_c);
+        return Err(e);
+    }
+    removed_on_ctrl_c
+        .complete(|| tmp.persist(&target))
         .map_err(|e| anyhow!("cannot write {}: {}", path.display(), e.error))?;
     Ok(())
 }

@@ -1,4 +1,5 @@
-//! Progress bar on stderr for long fits (hidden when stderr is not a terminal or with --quiet).
+//! Progress bars on stderr for long work: fits, a large file's reading, a long simulation
+//! and its writing (hidden when stderr is not a terminal or with --quiet).
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use motor_id_shared::fit::identify::{Progress, Stage};
@@ -89,6 +90,41 @@ pub fn read_progress(file: &str, len: u64, quiet: bool) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
     bar.set_style(
         ProgressStyle::with_template("reading {prefix} [{bar:30}] {bytes}/{total_bytes}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(file.to_string());
+    bar
+}
+
+/// Records from this many samples on show their simulation's and their writing's progress
+/// on stderr: a million rows take a second or more to write.
+pub const WRITE_PROGRESS_SAMPLES: usize = 1_000_000;
+
+/// A spinner on stderr while `n` samples are simulated; hidden when `quiet` or when `n` is
+/// below [`WRITE_PROGRESS_SAMPLES`].
+pub fn simulating(n: usize, quiet: bool) -> ProgressBar {
+    if quiet || n < WRITE_PROGRESS_SAMPLES {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(Some(n as u64), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} simulating {len} samples")
+            .expect("static template"),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(100));
+    bar
+}
+
+/// A bar on stderr of the rows of `file` written (`n` in all); hidden when `quiet` or when
+/// `n` is below [`WRITE_PROGRESS_SAMPLES`].
+pub fn writing(file: &str, n: usize, quiet: bool) -> ProgressBar {
+    if quiet || n < WRITE_PROGRESS_SAMPLES {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(Some(n as u64), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("writing {prefix} [{bar:30}] {pos}/{len} rows")
             .expect("static template")
             .progress_chars("=> "),
     );

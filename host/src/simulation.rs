@@ -83,7 +83,7 @@ pub struct SimulateArgs {
     /// friction alone slows the shaft (the CSV gets a `bridge` column: 1 driven, 0 open).
     #[arg(long, value_name = "S")]
     pub coast: Option<f64>,
-    /// No message on stderr.
+    /// No message on stderr (no progress either).
     #[arg(long, short)]
     pub quiet: bool,
 }
@@ -153,8 +153,10 @@ pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
         omega: &mut omega,
         current: &mut current,
     };
-    synthesize(&p, &experiment, dt, noise, a.seed, coast_from, buffers)
-        .map_err(|e| anyhow!("{e}"))?;
+    let bar = crate::progress::simulating(n, a.quiet);
+    let synthesized = synthesize(&p, &experiment, dt, noise, a.seed, coast_from, buffers);
+    bar.finish_and_clear();
+    synthesized.map_err(|e| anyhow!("{e}"))?;
     if let Some(k) = omega.iter().position(|x| !x.is_finite()) {
         bail!("the simulation gave non-finite numbers at sample {k}: check the motor parameters");
     }

@@ -1,10 +1,13 @@
 //! `identify` names a cheap explanation of a large misfit when a refit confirms it (issue
 //! 22): records of the independent reference plant written with an inverted sign, speed in
-//! rpm, current in mA, or a voltage column that never changes. A correct record gets no
-//! hint.
+//! rpm, current in mA, or a voltage column that never changes; or made from a fast record
+//! by keeping one row in K, where the voltage moved between the kept rows. A correct
+//! record, and the fast record averaged with `--decimate K`, get no hint.
 
 use motor_id_tests::reference_plant::SpeedSensor;
-use motor_id_tests::reference_plant::{csv, experiment, run, Effects, Motor, Sensors, Shape};
+use motor_id_tests::reference_plant::{
+    csv, experiment, run, Effects, Input, Motor, Sensors, Shape,
+};
 use motor_id_tests::{json, run_ok, s};
 use std::path::Path;
 
@@ -28,6 +31,19 @@ fn rewrite(src: &Path, dst: &Path, name: &str, f: impl Fn(f64) -> f64) {
         let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
         cells[col] = format!("{}", f(cells[col].parse::<f64>().unwrap()));
         out += &cells.join(",");
+        out.push('\n');
+    }
+    std::fs::write(dst, out).unwrap();
+}
+
+/// `src` with one data row in `k` kept (the first of each `k`), as a logger that samples
+/// slowly, or a careless thinning of a fast record, makes it.
+fn keep_one_in(src: &Path, dst: &Path, k: usize) {
+    let text = std::fs::read_to_string(src).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for line in lines.step_by(k) {
+        out += line;
         out.push('\n');
     }
     std::fs::write(dst, out).unwrap();
@@ -106,4 +122,102 @@ fn a_sign_or_a_unit_that_explains_the_misfit_is_named_and_a_good_record_gets_non
         assert_eq!(found.len(), 1, "{file}: {found:?}");
         assert!(found[0].contains(expected), "{file}: {found:?}");
     }
+}
+
+/// The readings' noise of the records below.
+const SENSORS: Sensors = Sensors {
+    speed: SpeedSensor::Tacho,
+    noise_omega: 0.2,
+    noise_current: 0.02,
+    seed: 3,
+};
+
+/// A bridge switched between 0 and 24 V at random, each level held 1 to 4 rows of 50 us: a
+/// PRBS (or a PWM) far faster than the motor's 20 ms La/Ra, which filters it to its mean.
+fn prbs(rate: f64, seconds: f64) -> Input {
+    let n = (rate * seconds) as usize;
+    let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    };
+    let mut v = Vec::with_capacity(n);
+    while v.len() < n {
+        let (hold, level) = (1 + next() % 4, [24.0, 0.0][(next() % 2) as usize]);
+        v.extend((0..hold).map(|_| level));
+    }
+    v.truncate(n);
+    Input {
+        dt: 1.0 / rate,
+        v,
+        tl: None,
+        open_from: None,
+    }
+}
+
+#[test]
+fn a_record_thinned_to_one_row_in_k_is_named_and_the_averaged_or_fast_record_gets_no_hint() {
+    let dir = tempfile::tempdir().unwrap();
+    // A switching input at 20 kHz, one row in 20 kept: the kept voltage (0 or 24 V) is not
+    // what was applied over the 1 ms that follows it.
+    let fast = dir.path().join("prbs_20kHz.csv");
+    csv::write(
+        &run(MOTOR, Effects::default(), SENSORS, prbs(20_000.0, 3.0)),
+        &fast,
+        true,
+    );
+    let kept = dir.path().join("prbs_kept.csv");
+    keep_one_in(&fast, &kept, 20);
+    let found = hints(dir.path(), &kept, &[]);
+    assert_eq!(found.len(), 1, "{found:?}");
+    for words in [
+        "jumps by more than half its range (0 to 24 V)",
+        "rougher than its sampling",
+        "--decimate K, which averages",
+    ] {
+        assert!(found[0].contains(words), "{words:?} not in {found:?}");
+    }
+    // The same rows averaged by the reader, or all of them: the model fits, no hint.
+    assert_eq!(
+        hints(dir.path(), &fast, &["--decimate", "20"]),
+        Vec::<String>::new()
+    );
+    assert_eq!(hints(dir.path(), &fast, &[]), Vec::<String>::new());
+
+    // Voltage steps at 1 kHz, one row in 50 kept (20 Hz): the steps, at rows 2003 and
+    // 4006, fall between kept rows, and La/Ra (20 ms) is shorter than the 50 ms step, so
+    // the current's jump is seen a step early. (Before this hint: "la sits at its bound".)
+    let steps = dir.path().join("steps_1kHz.csv");
+    csv::write(
+        &run(
+            MOTOR,
+            Effects::default(),
+            SENSORS,
+            experiment(Shape::Steps, 24.0, 1000.0, 6.01),
+        ),
+        &steps,
+        true,
+    );
+    let kept = dir.path().join("steps_kept.csv");
+    keep_one_in(&steps, &kept, 50);
+    let found = hints(dir.path(), &kept, &[]);
+    assert_eq!(found.len(), 1, "{found:?}");
+    for words in [
+        "just after the voltage changes",
+        "shorter than the record's step of 50.000 ms",
+        "record faster",
+    ] {
+        assert!(found[0].contains(words), "{words:?} not in {found:?}");
+    }
+    assert_eq!(hints(dir.path(), &steps, &[]), Vec::<String>::new());
+    // Averaged instead, the new 50 ms step is still longer than La/Ra: averaging does not
+    // help a motor faster than the step, the same hint holds.
+    let found = hints(dir.path(), &steps, &["--decimate", "50"]);
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!(
+        found[0].contains("shorter than the record's step of 50.000 ms"),
+        "{found:?}"
+    );
 }

@@ -54,7 +54,7 @@ pub fn run(a: &ScopeArgs) -> Result<()> {
         step_at: a.step_at,
     };
     let rec = read_scope(&a.file, &s)?;
-    rec.write(&a.out)?;
+    rec.write_showing(&a.out, a.quiet)?;
     if a.quiet {
         return Ok(());
     }

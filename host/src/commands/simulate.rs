@@ -7,7 +7,7 @@ use anyhow::Result;
 /// Run `simulate`.
 pub fn run(a: &SimulateArgs) -> Result<()> {
     let rec = simulate(a)?;
-    rec.write(&a.out)?;
+    rec.write_showing(&a.out, a.quiet)?;
     if a.quiet {
         return Ok(());
     }

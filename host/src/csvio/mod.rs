@@ -101,7 +101,19 @@ impl OwnedRecord {
 
     /// Write as record CSV.
     pub fn write(&self, path: &Path) -> Result<()> {
-        write_atomically(path, |tmp| self.write_to(tmp, path))
+        self.write_showing(path, true)
+    }
+
+    /// Write as record CSV, its rows' progress on stderr unless `quiet` (a record of
+    /// [`crate::progress::WRITE_PROGRESS_SAMPLES`] samples or more; the bar appears once the
+    /// temporary file exists).
+    pub fn write_showing(&self, path: &Path, quiet: bool) -> Result<()> {
+        write_atomically(path, |tmp| {
+            let bar = crate::progress::writing(&path.display().to_string(), self.len(), quiet);
+            let written = self.write_to(tmp, path, &bar);
+            bar.finish_and_clear();
+            written
+        })
     }
 
     /// Whether the reader would take every value back: finite and within
@@ -129,8 +141,8 @@ impl OwnedRecord {
         Ok(())
     }
 
-    /// Write as record CSV to `tmp` (`path` names it in errors).
-    fn write_to(&self, tmp: &Path, path: &Path) -> Result<()> {
+    /// Write as record CSV to `tmp` (`path` names it in errors), counting the rows on `bar`.
+    fn write_to(&self, tmp: &Path, path: &Path, bar: &indicatif::ProgressBar) -> Result<()> {
         self.check_readable()
             .with_context(|| format!("cannot write {}", path.display()))?;
         let mut w = csv::Writer::from_path(tmp)
@@ -162,6 +174,9 @@ impl OwnedRecord {
                 row.push(if k < c { "1" } else { "0" }.into());
             }
             w.write_record(&row)?;
+            if k % 4096 == 0 {
+                bar.set_position(k as u64);
+            }
         }
         w.flush()
             .with_context(|| format!("cannot write {}", path.display()))?;
