@@ -4,7 +4,7 @@
 //! viscous and Coulomb friction by up to 8 % on the coarse steps of a commissioning record
 //! (`docs/measurements/commissioning.md`).
 
-use super::{sign, Simulator};
+use super::{increments, sign, Simulator};
 
 impl Simulator {
     /// The electrical step with the rotor at rest over `share` of the step (0 to 1), from
@@ -73,8 +73,8 @@ impl Simulator {
 
     /// From rest with current `i` under `volts` and `load` (no friction in it): if the drive
     /// torque reaches the friction's opposition in its direction, move for the share `left`
-    /// of the step (the increments of a whole moving step, scaled by `left`: first order in
-    /// it) and say so; otherwise leave the state as it is.
+    /// of the step (its exact coefficients, [`Discrete::over_share`]) and say so; otherwise
+    /// leave the state as it is.
     fn move_from_rest(&mut self, i: f32, volts: f32, load: f32, left: f32) -> bool {
         if self.open {
             return false;
@@ -85,12 +85,19 @@ impl Simulator {
         if direction == 0.0 || drive.abs() < held.abs() {
             return false;
         }
-        self.current.set(i);
-        self.omega.set(0.0);
-        self.linear_update(i, 0.0, volts, load + held);
-        let (di, dw) = (self.current.hi - i, self.omega.hi);
-        self.current.set(i + left * di);
-        self.omega.set(left * dw);
+        let part = match left < 1.0 {
+            true => self.disc.over_share(self.dt, self.kv, left).ok(),
+            false => None,
+        };
+        let (di, dw) = increments(
+            part.as_ref().unwrap_or(&self.disc),
+            i,
+            0.0,
+            volts,
+            load + held,
+        );
+        self.current.set(i + di);
+        self.omega.set(dw);
         self.shaft_stuck = sign(self.omega.hi) != direction;
         if self.shaft_stuck {
             self.omega.set(0.0);
