@@ -366,7 +366,11 @@ impl<'s, const N: usize> Service<'s, N> {
         };
         self.identify_and_report(
             &commissioning_spec(&plan, &self.limits),
-            &IdentifyConfig::board(seed),
+            // The board's own readings: its ADC's rounding counts in the deviations.
+            &IdentifyConfig {
+                adc_readings: true,
+                ..IdentifyConfig::board(seed)
+            },
             hw,
             true,
         )

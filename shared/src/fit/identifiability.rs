@@ -28,6 +28,15 @@
 //! claims. On the commissioning benchmark this brought the pinned estimates within 3 reported
 //! deviations of the truth from 84.0 % to 94.7 % of 1,000 motors
 //! (docs/measurements/commissioning.md).
+//!
+//! Readings an ADC rounds with less noise than a count ([`crate::fit::pipeline::IdentifyConfig::adc_readings`]:
+//! a board's own records) add a term to either: while a modelled reading stays within one
+//! count its rounding error is one constant ([`crate::model::noise::Rounding`]), which no
+//! number of samples averages away and which the block scores, centred per record, see only
+//! in part. Its covariance, summed stretch by stretch in [`ScoreBlocks`], is added to the
+//! larger of the two. On the commissioning benchmark the pinned estimates within 3 reported
+//! deviations went from 98.2 % to 98.8 %, the |error|/σ medians from 0.62-0.70 to
+//! 0.54-0.66 (0.67 for an honest σ).
 
 use crate::capacity::MAX_FREE;
 use crate::error::Error;
@@ -162,17 +171,20 @@ impl Identifiability {
     }
 }
 
-/// Analyse the fit at unit point `u` with cost `cost`.
+/// Analyse the fit at unit point `u` with cost `cost`; `adc_readings`: the records' readings
+/// are an ADC's, each record's steady rounding error counted ([`ScoreBlocks`]).
 #[inline(never)]
 pub fn analyse(
     objective: &Objective,
     space: &Space,
     u: &[f32],
     cost: &Cost,
+    adc_readings: bool,
 ) -> Result<Identifiability, Error> {
     let mut ne = NormalEquations::EMPTY;
     let mut scores = ScoreBlocks::EMPTY;
     scores.set_dim(space.dim());
+    scores.set_adc_readings(adc_readings);
     let summed = objective.normal_equations_sums(space, u, STEP, true, &mut ne, Some(&mut scores));
     if summed.is_none() {
         return Err(Error::NoFiniteCandidate);
@@ -259,8 +271,19 @@ fn interpret(
     // The score's covariance in natural coordinates, over sigma^4 (0 when there are too few
     // blocks): with the Fisher information F, the sandwich variance of a quantity with
     // gradient g is y^T M y with y = F^+ g (see ScoreBlocks).
-    let sandwich = |a: usize, b: usize| {
-        scores.covariance(a, b).unwrap_or(0.0) / (per_unit[a] * per_unit[b]) / (sigma2 * sigma2)
+    // With it, the records' steady rounding errors (zero unless the readings are an ADC's),
+    // added to either: the block scores, centred per record, do not see them. Both
+    // quadratic forms `y^T M y` in one pass.
+    let sandwich_and_rounding = |y: &[f64; MAX_FREE]| -> (f64, f64) {
+        let (mut robust, mut rounding) = (0.0, 0.0);
+        for a in 0..dim {
+            for b in 0..dim {
+                let yy = y[a] * y[b] / (per_unit[a] * per_unit[b]) / (sigma2 * sigma2);
+                robust += yy * scores.covariance(a, b).unwrap_or(0.0);
+                rounding += yy * scores.rounding_covariance(a, b);
+            }
+        }
+        (robust, rounding)
     };
     // Quantity with gradient g in natural coordinates: (pinned?, std), by the delta method
     // over the informed directions (the larger of the white-noise and the sandwich
@@ -283,10 +306,8 @@ fn interpret(
                 bounded += s * s;
             }
         }
-        let robust: f64 = (0..dim)
-            .map(|a| (0..dim).map(|b| y[a] * sandwich(a, b) * y[b]).sum::<f64>())
-            .sum();
-        let std = libm::sqrt(informed.max(robust) + bounded);
+        let (robust, rounding) = sandwich_and_rounding(&y);
+        let std = libm::sqrt(informed.max(robust) + rounding + bounded);
         (flat <= FLAT_SHARE * norm2 && std <= PINNED_STD, std)
     };
     let mut params = heapless::Vec::new();

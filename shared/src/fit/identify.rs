@@ -91,7 +91,7 @@ pub fn identify_from(
         &space,
         &mut progress,
     )?;
-    let mut result = conclude(&objective, &space, searched);
+    let mut result = conclude(&objective, &space, searched, cfg.adc_readings);
     // The profile check works on the result in place (never a second copy of it), beside
     // the analysis's frame rather than on it. It is entered only when it has work (a flat
     // direction beside a pinned parameter), and reports its iterations as the fit does
@@ -228,17 +228,18 @@ fn pipeline(
     })
 }
 
-/// The result at the pipeline's best point, with the identifiability analysis. A frame of
-/// its own (see [`pipeline`]).
+/// The result at the pipeline's best point, with the identifiability analysis (of ADC
+/// readings: [`IdentifyConfig::adc_readings`]). A frame of its own (see [`pipeline`]).
 #[inline(never)]
 fn conclude(
     objective: &Objective,
     space: &Space,
     searched: Searched,
+    adc_readings: bool,
 ) -> Result<Identification, Error> {
     let dim = space.dim();
     let (u, cost) = (searched.u, searched.cost);
-    let identifiability = analyse(objective, space, &u[..dim], &cost)?;
+    let identifiability = analyse(objective, space, &u[..dim], &cost, adc_readings)?;
     Ok(Identification {
         params: space.params(&u[..dim]),
         cost,

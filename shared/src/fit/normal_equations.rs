@@ -9,6 +9,7 @@ use crate::fit::objective::{Cost, Objective};
 use crate::fit::score_blocks::ScoreBlocks;
 use crate::fit::space::Space;
 use crate::fit::sums::{RecordSums, Totals, SHIFT};
+use crate::model::noise::Rounding;
 use crate::model::sim::Simulator;
 
 /// Gauss-Newton normal equations at one point of the unit cube.
@@ -125,7 +126,23 @@ impl Objective<'_, '_> {
             let with_current = r.current.is_some() && w > 0.0;
             let mut sums = RecordSums::new(dim, with_current, sim_s.is_some());
             if let Some(s) = scores.as_deref_mut() {
-                s.start_record(r.len());
+                let rounding = match s.adc_readings() {
+                    true => [
+                        Rounding::of(r.omega, self.sigma_omega()),
+                        match (r.current, self.sigma_current(), with_current) {
+                            (Some(c), Some(sc), true) => {
+                                let q = Rounding::of(c, sc);
+                                Rounding {
+                                    error: w * q.error,
+                                    ..q
+                                }
+                            }
+                            _ => Rounding::default(),
+                        },
+                    ],
+                    false => [Rounding::default(); 2],
+                };
+                s.start_record(r.len(), rounding);
             }
             for k in 0..r.len() {
                 let y0 = sim0.reading();
@@ -155,7 +172,7 @@ impl Objective<'_, '_> {
                         ),
                         None => (0.0, 0.0),
                     };
-                    s.add(col_w, col_i, (rw, ri), h);
+                    s.add(col_w, col_i, (rw, ri), h, (y0.omega, y0.current));
                 }
                 if let Some(s) = sim_s.as_ref() {
                     sums.add_shift_response(r, k, y0, s.reading(), w, col_w, col_i);

@@ -67,6 +67,10 @@ pub struct IdentifyConfig {
     /// ([`crate::fit::profile_check`]); off for fits whose uncertainty nobody reads (the
     /// diagnosis' candidate effects), which saves its least-squares refits.
     pub profile_check: bool,
+    /// The readings are an ADC's (a board's own records): the deviations count each
+    /// record's steady rounding error ([`crate::model::noise::rounding_error`]), which
+    /// averaging does not remove.
+    pub adc_readings: bool,
 }
 
 /// The wider searches of [`identify_from`](crate::fit::identify::identify_from), for a fit that stays above the noise floor: a
@@ -112,6 +116,7 @@ impl IdentifyConfig {
             search: SearchWhen::AboveFloor,
             escalation: Escalation::Host,
             profile_check: true,
+            adc_readings: false,
         }
     }
 
@@ -164,6 +169,7 @@ impl IdentifyConfig {
             search: SearchWhen::Always,
             escalation: Escalation::None,
             profile_check: true,
+            adc_readings: false,
         }
     }
 }

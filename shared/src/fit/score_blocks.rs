@@ -20,6 +20,7 @@
 
 use crate::capacity::MAX_FREE;
 use crate::fit::sums::{triangle_index, TRIANGLE};
+use crate::model::noise::Rounding;
 
 /// Blocks per record: enough that the estimate is not dominated by a few blocks (its
 /// relative standard deviation is about `sqrt(2 / blocks)`, a quarter of a variance for the
@@ -61,6 +62,18 @@ pub struct ScoreBlocks {
     outer: [f32; TRIANGLE],
     /// Blocks over all records summed.
     blocks: u32,
+    /// The readings are an ADC's ([`ScoreBlocks::set_adc_readings`]).
+    adc: bool,
+    /// The rounding of the record being summed, speed and current, the current's error
+    /// weighted as its residuals are ([`ScoreBlocks::start_record`]).
+    rounding: [Rounding; 2],
+    /// The count each channel's modelled reading lies in now.
+    cells: [i32; 2],
+    /// Sums of the Jacobian's speed and current columns since each channel's reading
+    /// entered its count.
+    columns: [[f32; MAX_FREE]; 2],
+    /// Lower triangle of the score's covariance from the records' rounding errors.
+    rounded: [f32; TRIANGLE],
     /// Records summed.
     records: u32,
 }
@@ -78,6 +91,14 @@ impl ScoreBlocks {
         outer: [0.0; TRIANGLE],
         blocks: 0,
         records: 0,
+        adc: false,
+        rounding: [Rounding {
+            count: 0.0,
+            error: 0.0,
+        }; 2],
+        cells: [0; 2],
+        columns: [[0.0; MAX_FREE]; 2],
+        rounded: [0.0; TRIANGLE],
     };
 
     /// Sum `dim` free coordinates.
@@ -85,8 +106,24 @@ impl ScoreBlocks {
         self.dim = dim;
     }
 
-    /// Begin a record of `samples` samples.
-    pub fn start_record(&mut self, samples: usize) {
+    /// The readings are an ADC's: count each record's steady rounding error
+    /// ([`ScoreBlocks::start_record`]).
+    pub fn set_adc_readings(&mut self, on: bool) {
+        self.adc = on;
+    }
+
+    /// Whether the readings are an ADC's.
+    pub fn adc_readings(&self) -> bool {
+        self.adc
+    }
+
+    /// Begin a record of `samples` samples whose readings an ADC rounds as `rounding` says
+    /// (speed, and current with its error times the current's weight; defaults for
+    /// readings not an ADC's).
+    pub fn start_record(&mut self, samples: usize, rounding: [Rounding; 2]) {
+        self.rounding = rounding;
+        self.cells = [i32::MIN; 2];
+        self.columns = [[0.0; MAX_FREE]; 2];
         self.block_len = samples.div_ceil(BLOCKS_PER_RECORD).max(1);
         self.in_block = 0;
         self.block = [[0.0; MAX_FREE]; 2];
@@ -98,15 +135,59 @@ impl ScoreBlocks {
     /// Add one sample: the Jacobian rows `col_w`, `col_i` of its (weighted) speed and current
     /// residuals `r = (rw, ri)` and the responses `h = (hw, hi)` of those residuals' readings
     /// to the record's initial speed (zeros for a record that starts at rest).
-    pub fn add(&mut self, col_w: &[f32], col_i: &[f32], r: (f32, f32), h: (f32, f32)) {
+    ///
+    /// `y` holds the modelled speed and current readings: while one stays within a count,
+    /// its rounding error is one constant ([`Rounding`]), whose effect on the score is
+    /// summed over that stretch and counted when the reading leaves the count.
+    pub fn add(
+        &mut self,
+        col_w: &[f32],
+        col_i: &[f32],
+        r: (f32, f32),
+        h: (f32, f32),
+        y: (f32, f32),
+    ) {
         for d in 0..self.dim {
             self.block[0][d] += col_w[d] * r.0 + col_i[d] * r.1;
             self.block[1][d] += col_w[d] * h.0 + col_i[d] * h.1;
+        }
+        if self.adc {
+            self.follow_count(0, y.0, col_w);
+            self.follow_count(1, y.1, col_i);
         }
         self.in_block += 1;
         if self.in_block == self.block_len {
             self.close_block();
         }
+    }
+
+    /// Channel `c`'s modelled reading `y` with its Jacobian column `col`: a stretch ends
+    /// when the reading leaves its count. (Out of line: a board's flash.)
+    #[inline(never)]
+    fn follow_count(&mut self, c: usize, y: f32, col: &[f32]) {
+        let cell = self.rounding[c].cell(y);
+        if cell != self.cells[c] {
+            self.close_stretch(c);
+            self.cells[c] = cell;
+        }
+        for d in 0..self.dim {
+            self.columns[c][d] += col[d];
+        }
+    }
+
+    /// Count the stretch of channel `c` (0 speed, 1 current) whose reading stayed within
+    /// one count: a constant error `e` on its readings moves the score by `e` times its
+    /// columns' sum; with `e` of the rounding's spread, a covariance that the blocks see
+    /// only in part (a stretch within a block, or its mean over the record, they do not).
+    fn close_stretch(&mut self, c: usize) {
+        let e = self.rounding[c].error;
+        let g = self.columns[c];
+        for a in 0..self.dim {
+            for b in 0..=a {
+                self.rounded[triangle_index(a, b)] += e * e * g[a] * g[b];
+            }
+        }
+        self.columns[c] = [0.0; MAX_FREE];
     }
 
     fn close_block(&mut self) {
@@ -146,9 +227,17 @@ impl ScoreBlocks {
                 self.outer[t] += shift * shift * hh[t] - shift * rh[t] - mean_a * mean_b / n;
             }
         }
+        self.close_stretch(0);
+        self.close_stretch(1);
         self.blocks += self.record_blocks;
         self.records += 1;
         self.record_blocks = 0;
+    }
+
+    /// The covariance of the score at `(a, b)` (unit coordinates) from the records' steady
+    /// rounding errors, one constant error per record and channel.
+    pub fn rounding_covariance(&self, a: usize, b: usize) -> f64 {
+        self.rounded[triangle_index(a.max(b), a.min(b))] as f64
     }
 
     /// The estimate of `J^T Sigma J` at `(a, b)` (unit coordinates), with the small-sample
@@ -196,10 +285,16 @@ mod tests {
         let slope = (s1 * sty - st * sy) / det;
         let intercept = (sy - slope * st) / s1;
         let mut s = blocks(2);
-        s.start_record(n);
+        s.start_record(n, [Rounding::default(); 2]);
         for (k, &yk) in y.iter().enumerate() {
             let r = (yk as f64 - intercept - slope * t(k)) as f32;
-            s.add(&[1.0, t(k) as f32], &[0.0, 0.0], (r, 0.0), (0.0, 0.0));
+            s.add(
+                &[1.0, t(k) as f32],
+                &[0.0, 0.0],
+                (r, 0.0),
+                (0.0, 0.0),
+                (0.0, 0.0),
+            );
         }
         s.end_record(0.0);
         // (J^T J)^-1 = [[stt, -st], [-st, s1]] / det; the slope's row is [-st, s1] / det.
@@ -251,11 +346,17 @@ mod tests {
         let col = |k: usize| [1.0f32, k as f32 / n as f32];
         let mut plain = blocks(2);
         let mut shifted = blocks(2);
-        plain.start_record(n);
-        shifted.start_record(n);
+        plain.start_record(n, [Rounding::default(); 2]);
+        shifted.start_record(n, [Rounding::default(); 2]);
         for k in 0..n {
-            plain.add(&col(k), &[0.0; 2], (e[k], 0.0), (0.0, 0.0));
-            shifted.add(&col(k), &[0.0; 2], (e[k] + c * h[k], 0.0), (h[k], 0.0));
+            plain.add(&col(k), &[0.0; 2], (e[k], 0.0), (0.0, 0.0), (0.0, 0.0));
+            shifted.add(
+                &col(k),
+                &[0.0; 2],
+                (e[k] + c * h[k], 0.0),
+                (h[k], 0.0),
+                (0.0, 0.0),
+            );
         }
         plain.end_record(0.0);
         shifted.end_record(c);
@@ -272,11 +373,44 @@ mod tests {
     }
 
     #[test]
+    fn a_reading_held_within_a_count_errs_once_for_the_stretch() {
+        // One coordinate, its speed column 1 at every sample, a count of 1 with an error of
+        // 0.3: 100 samples whose modelled reading stays in one count give (0.3 x 100)^2;
+        // readings that change count at every sample give 100 x 0.3^2; readings not an
+        // ADC's give nothing.
+        let rounding = [
+            Rounding {
+                count: 1.0,
+                error: 0.3,
+            },
+            Rounding::default(),
+        ];
+        let run = |adc: bool, y: &dyn Fn(usize) -> f32| {
+            let mut s = blocks(1);
+            s.set_adc_readings(adc);
+            s.start_record(100, rounding);
+            for k in 0..100 {
+                s.add(&[1.0], &[0.0], (0.0, 0.0), (0.0, 0.0), (y(k), 0.0));
+            }
+            s.end_record(0.0);
+            s.rounding_covariance(0, 0)
+        };
+        let held = run(true, &|_| 5.2);
+        assert!((held - 900.0).abs() < 1e-2, "{held}");
+        let moving = run(true, &|k| k as f32);
+        assert!((moving - 9.0).abs() < 1e-4, "{moving}");
+        // Two stretches of 50: 2 x (0.3 x 50)^2.
+        let two = run(true, &|k| if k < 50 { 5.2 } else { 6.1 });
+        assert!((two - 450.0).abs() < 1e-2, "{two}");
+        assert_eq!(run(false, &|_| 5.2), 0.0);
+    }
+
+    #[test]
     fn too_few_blocks_give_no_estimate() {
         let mut s = blocks(5);
-        s.start_record(4);
+        s.start_record(4, [Rounding::default(); 2]);
         for _ in 0..4 {
-            s.add(&[1.0; 5], &[0.0; 5], (1.0, 0.0), (0.0, 0.0));
+            s.add(&[1.0; 5], &[0.0; 5], (1.0, 0.0), (0.0, 0.0), (0.0, 0.0));
         }
         s.end_record(0.0);
         assert!(s.covariance(0, 0).is_none());
