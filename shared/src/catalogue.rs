@@ -107,6 +107,14 @@ macro_rules! catalogue_table {
                     /// Cogging phase [rad] (`cogging`).
                     CogPhase
                 ]
+                /// [`winding_heating`].
+                WindingHeating winding_heating [
+                    /// Winding temperature rise per watt of copper loss, at the thermal
+                    /// steady state [K/W] (`winding_heating`).
+                    Rth,
+                    /// Winding thermal time constant [s] (`winding_heating`).
+                    TauTh
+                ]
             ]
         }
     };

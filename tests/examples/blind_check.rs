@@ -8,8 +8,9 @@
 //! `cargo run --release -p motor-id-tests --example blind_check -- [SEEDS] [RATES] [CASES]`
 //! e.g. `-- 8 2000,5000,10000 all` (the defaults); CASES is `all` or names joined by `,`
 //! (`null`, `static`, `asymmetric`, `deadtime`, `offset`, `limit`, `cogging` (told its
-//! detents per revolution), the withheld `cogging-untold`, a `delay` of the speed reading of
-//! 0.5-1 sample, pairs as `static+offset` or `static+cogging-untold`).
+//! detents per revolution), `heating` (winding heating, on 40 s reversing cycles), the
+//! withheld `cogging-untold`, a `delay` of the speed reading of 0.5-1 sample, pairs as
+//! `static+offset` or `static+cogging-untold`).
 //! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
 //! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`.
 

@@ -115,6 +115,11 @@ pub struct Effects {
     pub cog_cycles: f64,
     /// Cogging phase [rad].
     pub cog_phase: f64,
+    /// Winding heating: the temperature rise per watt of copper loss at the steady state
+    /// [K/W] (0: none); the resistance is `Ra (1 + 0.00393 dT)`.
+    pub rth: f64,
+    /// The winding's thermal time constant [s].
+    pub tau_th: f64,
 }
 
 /// A run of the plant: the readings (as a record CSV holds them) and the truth.
@@ -132,6 +137,8 @@ pub struct Run {
     pub current_true: Vec<f64>,
     /// True rotor angle at `t_k` [rad].
     pub theta_true: Vec<f64>,
+    /// True temperature rise of the winding at `t_k` [K] (0 without heating).
+    pub heat_true: Vec<f64>,
 }
 
 impl Run {
@@ -180,6 +187,7 @@ pub fn run(motor: Motor, effects: Effects, sensors: Sensors, input: Input) -> Ru
         omega_true: Vec::with_capacity(n),
         current_true: Vec::with_capacity(n),
         theta_true: Vec::with_capacity(n),
+        heat_true: Vec::with_capacity(n),
         input,
     };
     for k in 0..n {
@@ -202,6 +210,7 @@ pub fn run(motor: Motor, effects: Effects, sensors: Sensors, input: Input) -> Ru
         out.omega_true.push(s.w);
         out.current_true.push(s.i);
         out.theta_true.push(s.theta);
+        out.heat_true.push(s.heat);
         let (v, tl) = (out.input.v[k], out.input.load(k));
         for _ in 0..SUBSTEPS {
             plant.substep(v, tl, open, h);

@@ -243,3 +243,118 @@ fn cogging_is_named_when_told_its_detents_per_revolution() {
         .collect();
     assert!(!tried.contains(&"cogging"), "{tried:?}");
 }
+
+/// A fast motor (La/Ra 20 ms, mechanical time scale 0.27 s) on two 40 s reversing cycles
+/// at 24 V and 2 kHz, read by a tacho (0.2 rad/s of noise) and a current sensor (0.05 A):
+/// trained on one reversing every second, held out on one reversing every 0.9 s. With
+/// `heat` (rise per watt [K/W], thermal time constant [s]) the winding warms along each.
+/// `extra`: more options of `diagnose`. Returns the report and the plant's runs.
+fn diagnose_cycles(
+    dir: &Path,
+    heat: (f64, f64),
+    extra: &[&str],
+) -> (Value, Vec<motor_id_tests::reference_plant::Run>) {
+    let motor = Motor {
+        ra: 1.0,
+        la: 0.02,
+        j: 0.002,
+        b: 0.001,
+        kv: 0.08,
+    };
+    let effects = Effects {
+        rth: heat.0,
+        tau_th: heat.1,
+        ..Effects::default()
+    };
+    let mut paths = Vec::new();
+    let mut runs = Vec::new();
+    for (name, period, seed) in [("cycle", 2.0, 1), ("cycle_held_out", 1.8, 2)] {
+        let sensors = Sensors {
+            speed: SpeedSensor::Tacho,
+            noise_omega: 0.2,
+            noise_current: 0.05,
+            seed,
+        };
+        let input = experiment(Shape::Cycle { period }, 24.0, 2000.0, 40.0);
+        let r = run(motor, effects, sensors, input);
+        let path = dir.join(format!("{name}.csv"));
+        csv::write(&r, &path, true);
+        paths.push(path);
+        runs.push(r);
+    }
+    let report =
+        motor_id_tests::diagnose(&paths[..1], &paths[1..], extra, &dir.join("diag.json")).0;
+    (report, runs)
+}
+
+#[test]
+fn winding_heating_is_named_on_long_cycling_records_and_not_without_it() {
+    // The plant's own heating (its resistance Ra (1 + 0.00393 dT) inside its RK4, its
+    // temperature a fourth state driven by i^2 Ra(T)): 0.18 K/W with a thermal time
+    // constant of 20 s warms the winding by 44 K over the training record and 49 K over the
+    // held-out one, Ra up 17-19 %. The
+    // diagnosis names `winding_heating` alone, measures the rise per watt within 2 % and
+    // the time constant within 5 %, and leaves the held-out misfit at the noise.
+    let dir = tempfile::tempdir().unwrap();
+    let (rth, tau) = (0.18, 20.0);
+    let (r, runs) = diagnose_cycles(dir.path(), (rth, tau), &[]);
+    for run in &runs {
+        let warmed = run.heat_true.last().copied().unwrap();
+        assert!((40.0..50.0).contains(&warmed), "{warmed} K");
+    }
+    let v = &r["verdict"];
+    assert_eq!(motor_id_tests::named_effects(v), ["winding_heating"], "{v}");
+    assert_eq!(v["unexplained"], false, "{v}");
+    let after = v["holdout_rmse_after"].as_f64().unwrap();
+    let noise = v["holdout_noise"].as_f64().unwrap();
+    assert!(after < 1.1 * noise, "{after} vs noise {noise}");
+    let got = |k: &str| {
+        v["params"][k]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{k} in {v}"))
+    };
+    eprintln!(
+        "rth {} (truth {rth}), tau_th {} (truth {tau})",
+        got("rth"),
+        got("tau_th")
+    );
+    assert!((got("rth") / rth - 1.0).abs() < 0.02, "{v}");
+    assert!((got("tau_th") / tau - 1.0).abs() < 0.05, "{v}");
+    assert!((got("ra") - 1.0).abs() < 0.02, "{v}");
+
+    // The same records without heating: nothing is named (the heating's two parameters
+    // do not stand in for noise on records this long).
+    let dir = tempfile::tempdir().unwrap();
+    let (r, _) = diagnose_cycles(dir.path(), (0.0, 0.0), &[]);
+    let v = &r["verdict"];
+    assert!(motor_id_tests::named_effects(v).is_empty(), "{v}");
+    assert_eq!(v["unexplained"], false, "{v}");
+}
+
+#[test]
+fn heating_left_out_of_the_catalogue_is_reported_as_a_drift_of_ra_and_named_nothing() {
+    // The records of the test above, `winding_heating` withheld (`--without`): no catalogue
+    // name stands in for it, the remainder is unexplained, and it says that Ra rises along
+    // the records (windows of 10 s centred 5 s and 35 s into a cycle warming by 44-49 K:
+    // 0.393 %/K of the temperature between them, some 10-15 %).
+    let dir = tempfile::tempdir().unwrap();
+    let (r, _) = diagnose_cycles(dir.path(), (0.18, 20.0), &["--without", "winding_heating"]);
+    let v = &r["verdict"];
+    assert!(motor_id_tests::named_effects(v).is_empty(), "{v}");
+    assert_eq!(v["unexplained"], true, "{v}");
+    let drift = v["remainder"]["drift"].as_array().expect("drift");
+    let ra: Vec<&Value> = drift.iter().filter(|d| d["param"] == "ra").collect();
+    assert!(!ra.is_empty(), "{drift:?}");
+    for d in &ra {
+        let change = d["change"].as_f64().unwrap();
+        assert!((0.08..0.2).contains(&change), "{d}");
+    }
+    // The largest drift is Ra's, and the sentence says so.
+    assert_eq!(drift[0]["param"], "ra", "{drift:?}");
+    let said = v["remainder"]["summary"].to_string();
+    eprintln!("{said}");
+    assert!(
+        said.contains("a parameter drifts along a record: ra +"),
+        "{said}"
+    );
+}

@@ -421,6 +421,29 @@ fn armature_reaction_agrees_within_half_a_sample_of_its_effect() {
 }
 
 #[test]
+fn winding_heating_agrees_within_half_a_sample_of_its_effect() {
+    // A winding that warms fast (a thermal time constant of 0.3 s, 0.15 K/W), so that the
+    // 1.2 s reversal warms it by up to 68 K: the product holds the hot resistance's extra
+    // drop over a sample and steps the temperature exactly with the loss held over the
+    // sample, the plant integrates both in its RK4. The speed agrees within 2e-4 of its peak.
+    let e = Effects {
+        rth: 0.15,
+        tau_th: 0.3,
+        ..Effects::default()
+    };
+    let p = pair(
+        FAST,
+        e,
+        Some("winding_heating:rth=0.15,tau=0.3"),
+        "reversal",
+    );
+    let warmed = p.reference.heat_true.iter().fold(0.0f64, |a, x| a.max(*x));
+    eprintln!("winding_heating: warmed by up to {warmed:.1} K");
+    assert!(warmed > 50.0, "{warmed} K");
+    p.check("winding_heating reversal", held_effect_bound(&p));
+}
+
+#[test]
 fn sensor_delay_agrees_within_linear_interpolation_between_samples() {
     // The product interpolates the delayed reading linearly between samples, the reference
     // between substeps: the error of linear interpolation, dt^2/8 |w''|, about an eighth

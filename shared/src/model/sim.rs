@@ -19,8 +19,8 @@ use crate::error::Error;
 use crate::model::discretise::Discrete;
 use crate::model::effects::friction::FrictionLaw;
 use crate::model::effects::{
-    current_offset, sensor_delay, tacho_ripple, Held, BEYOND_COULOMB, SHAFT_DEAD_ZONE,
-    SHAFT_FRICTION, SWITCHES,
+    current_offset, sensor_delay, tacho_ripple, winding_heating, Held, BEYOND_COULOMB,
+    SHAFT_DEAD_ZONE, SHAFT_FRICTION, SWITCHES,
 };
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
@@ -157,6 +157,12 @@ pub struct Simulator {
     /// Cogging angle `cog_cycles * theta`, wrapped to [-pi, pi] (host builds only: a board's
     /// simulator holds no cogging, and is copied too often to carry the slot).
     cogging_psi: [f32; HOST_SLOT],
+    /// The winding's temperature rise since the record's start [K] (`winding_heating`;
+    /// host builds only, as `cogging_psi`).
+    winding_rise: [Compensated; HOST_SLOT],
+    /// The share of the way to its steady state the rise goes in a step
+    /// ([`winding_heating::step_gain`]; host builds only).
+    thermal_gain: [f32; HOST_SLOT],
     shaft_stuck: bool,
     current_stuck: bool,
     ring: [f32; RING],
@@ -211,6 +217,11 @@ impl Simulator {
             omega: Compensated::new(0.0),
             psi: 0.0,
             cogging_psi: [0.0; HOST_SLOT],
+            winding_rise: [Compensated::new(0.0); HOST_SLOT],
+            // (`from_fn`: a board's empty slot calls nothing.)
+            thermal_gain: core::array::from_fn(|_| {
+                winding_heating::step_gain(p.get(ParamId::TauTh), dt)
+            }),
             shaft_stuck: false,
             current_stuck: false,
             ring: [0.0; RING],
@@ -227,6 +238,8 @@ impl Simulator {
         self.omega = Compensated::new(init.omega);
         self.psi = 0.0;
         self.cogging_psi = [0.0; HOST_SLOT];
+        // Each record begins cold (`winding_heating`).
+        self.winding_rise = [Compensated::new(0.0); HOST_SLOT];
         self.shaft_stuck = self.friction && init.omega == 0.0;
         self.current_stuck = self.effect(ParamId::Vb) > 0.0 && init.current == 0.0;
         self.open = false;

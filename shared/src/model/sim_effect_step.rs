@@ -1,6 +1,7 @@
 //! The step with any effect (paper Eq. 5 with the catalogue's held inputs): the entries of
 //! role [`Role::HeldInputs`] (armature reaction, bridge dead time, the current limit,
-//! cogging) as held voltage and load, each from its own entry; the fan load at the step's
+//! cogging, the winding's hot resistance) as held voltage and load, each from its own
+//! entry, and the winding's temperature advanced after the step; the fan load at the step's
 //! end, solved with it ([`Role::SpeedLoad`]); brush drop and
 //! friction as dead zones, whose stuck state is frozen while the other advances with its
 //! own exact first-order step (see the module doc of [`super`]).
@@ -8,7 +9,8 @@
 use super::{sign, Compensated, Simulator};
 use crate::capacity::FULL;
 use crate::model::effects::{
-    brush_drop, quadratic_load, tacho_ripple, Held, Role, StepState, ROLES, SWITCHES,
+    brush_drop, quadratic_load, tacho_ripple, winding_heating, Held, Role, StepState, ROLES,
+    SWITCHES,
 };
 use crate::param_id::ParamId;
 
@@ -59,7 +61,7 @@ impl Simulator {
         let i0 = self.current.hi;
         let w0 = self.omega.hi;
         // The entries' held inputs (armature reaction, bridge dead time, the drive's current
-        // limit, cogging), in
+        // limit, cogging, the winding's heating), in
         // catalogue order; none on a board, whose simulator holds no such entry.
         let (mut volts, mut load) = (v, tl);
         if FULL {
@@ -72,6 +74,7 @@ impl Simulator {
                     current: i0,
                     omega: w0,
                     cogging_angle: self.cogging_psi.first().copied().unwrap_or(0.0),
+                    winding_rise: self.winding_rise.first().map_or(0.0, |r| r.hi),
                 },
             );
             for (e, role) in ROLES.iter().enumerate() {
@@ -136,6 +139,7 @@ impl Simulator {
             // Stuck over the step: break away where the drive torque reaches the opposition.
             self.break_away_within_step(i0, volts, load);
         }
+        self.heat_winding_over_the_step(i0);
         if self.tracks_angle() {
             let rate = measured_omega.unwrap_or(0.5 * (w0 + self.omega.hi));
             let cycles = self.effect(ParamId::RippleCycles);
@@ -146,6 +150,29 @@ impl Simulator {
             }
         }
         self.push_reading();
+    }
+
+    /// The winding's temperature rise (`winding_heating`, a state of the host's simulator
+    /// alone) over a step from current `i0`: the exact step of
+    /// `tau_th d(dT)/dt = rth loss - dT` with the copper loss `Ra (1 + ALPHA dT) i^2` held
+    /// over the step, `i^2` the mean of its values at the step's ends (the trapezoid: at a
+    /// reversal the current falls by much of itself within a few steps). Its drop
+    /// `-ALPHA dT Ra i` acts through the entry's held input in the next step.
+    #[inline(always)]
+    fn heat_winding_over_the_step(&mut self, i0: f32) {
+        let rth = self.effect(ParamId::Rth);
+        if rth == 0.0 {
+            return;
+        }
+        let i1 = self.current.hi;
+        // Paper Eq. 1 with the rotor held: `ae = e^{-Ra dt/La} - 1`, `ge = -ae / Ra`.
+        let ra = -self.disc.ae / self.disc.ge;
+        let gain = self.thermal_gain.first().copied().unwrap_or(0.0);
+        if let Some(rise) = self.winding_rise.first_mut() {
+            let hot = ra * winding_heating::resistance_factor(rise.hi);
+            let loss = hot * 0.5 * (i0 * i0 + i1 * i1);
+            rise.add(winding_heating::rise_increment(rise.hi, loss, rth, gain));
+        }
     }
 
     /// The entry of role [`Role::SpeedLoad`] (the fan load `kq w |w|`) over a step the shaft

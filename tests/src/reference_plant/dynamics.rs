@@ -12,11 +12,20 @@
 //! - a current-limiting drive: `v_applied` clamped to `Kv_eff w + vb sign(i) ± Ra imax`, the
 //!   voltages that hold `|i|` at `imax` (below it the current rises towards it with La/Ra);
 //! - cogging: a detent torque `cog_amp sin(cog_cycles theta + cog_phase)` against the
-//!   shaft, in the torque balance and in the break-away test at rest.
+//!   shaft, in the torque balance and in the break-away test at rest;
+//! - winding heating: the resistance `Ra (1 + 0.00393 dT)` in paper Eq. 1 and in the current
+//!   limit (copper's temperature coefficient at 20 °C), with the winding's temperature rise
+//!   a fourth state of the RK4, `tau_th d(dT)/dt = rth i^2 Ra (1 + 0.00393 dT) - dT`, from
+//!   0 at the start of a run.
 
 use super::{Effects, Motor};
 
-/// The plant's state: armature current [A], shaft speed [rad/s], rotor angle [rad].
+/// Copper's temperature coefficient of resistance at 20 °C [1/K] (annealed copper, IEC
+/// 60028).
+const COPPER_PER_KELVIN: f64 = 0.00393;
+
+/// The plant's state: armature current [A], shaft speed [rad/s], rotor angle [rad], the
+/// winding's temperature rise [K].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct State {
     /// Armature current [A].
@@ -25,6 +34,8 @@ pub struct State {
     pub w: f64,
     /// Rotor angle [rad].
     pub theta: f64,
+    /// The winding's temperature rise since the run's start [K] (0 without heating).
+    pub heat: f64,
 }
 
 /// What is held over one substep: the inputs and the modes the stick-slip logic chose at
@@ -76,6 +87,10 @@ impl Dynamics {
             "static friction needs a Stribeck speed"
         );
         assert!(e.vdt == 0.0 || e.ib > 0.0, "dead time needs a current band");
+        assert!(
+            e.rth == 0.0 || e.tau_th > 0.0,
+            "heating needs a thermal time constant"
+        );
         Dynamics {
             m,
             e,
@@ -120,13 +135,18 @@ impl Dynamics {
         }
     }
 
+    /// The winding's resistance at its temperature rise `heat` [ohm].
+    fn resistance(&self, heat: f64) -> f64 {
+        self.m.ra * (1.0 + COPPER_PER_KELVIN * heat)
+    }
+
     /// The bridge's voltage `v` after the drive's current limit, at state `s`.
     fn limited(&self, v: f64, s: State) -> f64 {
         if self.e.imax <= 0.0 {
             return v;
         }
         let emf = self.kv_eff(s.i) * s.w + self.e.vb * sign(s.i);
-        let reach = self.m.ra * self.e.imax;
+        let reach = self.resistance(s.heat) * self.e.imax;
         v.clamp(emf - reach, emf + reach)
     }
 
@@ -143,11 +163,17 @@ impl Dynamics {
     fn derivative(&self, s: State, h: &Hold) -> State {
         let (m, e) = (&self.m, &self.e);
         let kv = self.kv_eff(s.i);
+        let ra = self.resistance(s.heat);
         let di = if h.current_blocked {
             0.0
         } else {
-            (self.applied(self.limited(h.v, s), s.i) - m.ra * s.i - kv * s.w - e.vb * h.current_dir)
+            (self.applied(self.limited(h.v, s), s.i) - ra * s.i - kv * s.w - e.vb * h.current_dir)
                 / m.la
+        };
+        let heat = if e.rth > 0.0 {
+            (e.rth * s.i * s.i * ra - s.heat) / e.tau_th
+        } else {
+            0.0
         };
         let dw = if h.shaft_stuck {
             0.0
@@ -164,6 +190,7 @@ impl Dynamics {
             i: di,
             w: dw,
             theta: s.w,
+            heat,
         }
     }
 
@@ -209,6 +236,7 @@ impl Dynamics {
             i: s0.i + f * k.i,
             w: s0.w + f * k.w,
             theta: s0.theta + f * k.theta,
+            heat: s0.heat + f * k.heat,
         };
         let k1 = self.derivative(s0, &hold);
         let k2 = self.derivative(at(k1, dt / 2.0), &hold);
@@ -218,6 +246,7 @@ impl Dynamics {
             i: s0.i + dt / 6.0 * (k1.i + 2.0 * k2.i + 2.0 * k3.i + k4.i),
             w: s0.w + dt / 6.0 * (k1.w + 2.0 * k2.w + 2.0 * k3.w + k4.w),
             theta: s0.theta + dt / 6.0 * (k1.theta + 2.0 * k2.theta + 2.0 * k3.theta + k4.theta),
+            heat: s0.heat + dt / 6.0 * (k1.heat + 2.0 * k2.heat + 2.0 * k3.heat + k4.heat),
         };
         if self.e.vb > 0.0 && !hold.current_blocked && sign(s1.i) != hold.current_dir {
             s1.i = 0.0;

@@ -1,7 +1,7 @@
 //! Input sequences for the reference plant: the operating conditions of paper's Section 6
-//! (start, voltage steps, load step) plus a reversal, a chirp and a ramp, sampled at a
-//! given rate with the record CSV's convention (sample `k` holds the input from `t_k` to
-//! `t_k+1`).
+//! (start, voltage steps, load step) plus a reversal, a chirp, a ramp and a reversing cycle
+//! (a duty that heats a winding), sampled at a given rate with the record CSV's convention
+//! (sample `k` holds the input from `t_k` to `t_k+1`).
 
 use std::f64::consts::TAU;
 
@@ -64,6 +64,11 @@ pub enum Shape {
     },
     /// From 0 to `v` linearly over the record.
     Ramp,
+    /// A reversing duty cycle: `v` for the first half of each `period`, `-v` for the second.
+    Cycle {
+        /// The cycle's period [s].
+        period: f64,
+    },
 }
 
 /// The input of `shape` at full voltage `v`, `rate` samples per second for `duration` s.
@@ -84,6 +89,8 @@ pub fn experiment(shape: Shape, v: f64, rate: f64, duration: f64) -> Input {
                 v * (TAU * (f0 * t + (f1 - f0) * t * t / (2.0 * duration))).sin()
             }
             Shape::Ramp => v * t / duration,
+            Shape::Cycle { period } if (t / period).fract() < 0.5 => v,
+            Shape::Cycle { .. } => -v,
         }
     };
     let tl = match shape {

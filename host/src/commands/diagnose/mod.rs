@@ -11,6 +11,7 @@
 
 mod coverage;
 mod data;
+mod drift;
 mod effect_fit;
 mod naming;
 mod plot;
@@ -102,7 +103,8 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let repeats = repeats.report(&data, &after.fit.result.params)?;
     let rest = remainder::remainder(
         &data,
-        &after.fit.result.params,
+        &after.fit,
+        &a.fit,
         after.holdout_rmse,
         found.holdout.noise,
         repeats.holdout_floor().map(|f| f.0),

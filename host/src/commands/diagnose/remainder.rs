@@ -10,7 +10,9 @@
 //! variance).
 
 use super::data::{Data, Trace};
+use super::drift::{self, Drift};
 use super::regimes::{self, RecordShare, RegimeShare};
+use crate::fit::{Fit, FitOptions};
 use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::ModelParams;
@@ -41,6 +43,9 @@ pub struct Remainder {
     pub records: Vec<RecordShare>,
     /// The stretch of one held-out record with the largest share of it.
     pub span: Span,
+    /// Motor parameters that change along a record (window by window refits,
+    /// [`super::drift`]), the largest change first.
+    pub drift: Vec<Drift>,
     /// The findings in words.
     pub summary: Vec<String>,
 }
@@ -71,12 +76,13 @@ pub fn unexplained(rmse: f32, floor: f32) -> bool {
     rmse > UNEXPLAINED_RATIO * floor
 }
 
-/// The remainder of the final model `p` on the held-out records of `data`, whose held-out
-/// RMSE is `rmse`, against `noise` and the repeatability floor; `None` when it is not
-/// significantly above the floor.
+/// The remainder of the final model (`final_fit`, fitted with `opts`) on the held-out
+/// records of `data`, whose held-out RMSE is `rmse`, against `noise` and the repeatability
+/// floor; `None` when it is not significantly above the floor.
 pub fn remainder(
     data: &Data,
-    p: &ModelParams,
+    final_fit: &Fit,
+    opts: &FitOptions,
     rmse: f32,
     noise: f32,
     repeatability: Option<f32>,
@@ -85,6 +91,7 @@ pub fn remainder(
     if !unexplained(rmse, floor_rmse) {
         return Ok(None);
     }
+    let p: &ModelParams = &final_fit.result.params;
     let traces: Vec<Trace> = data.holdout_traces(p)?;
     let found = regimes::analyse(&traces, noise);
     let span = worst_span(&traces);
@@ -109,6 +116,13 @@ pub fn remainder(
         span.from_s.0,
         span.to_s.0
     ));
+    // Whether a parameter changes along a record: a misfit that grows along it.
+    let drift = drift::drifts(data, final_fit, opts)?;
+    summary.extend(
+        drift
+            .iter()
+            .map(|d| format!("a parameter drifts along a record: {}", d.sentence())),
+    );
     Ok(Some(Remainder {
         rmse: Num(excess),
         over_floor: Num(rmse / floor_rmse),
@@ -118,6 +132,7 @@ pub fn remainder(
         regimes: found.regimes,
         records: found.records,
         span,
+        drift,
         summary,
     }))
 }

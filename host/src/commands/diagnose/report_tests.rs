@@ -174,6 +174,7 @@ fn an_unexplained_remainder_is_said_with_its_size_and_place() {
             to_s: Num(2.0),
             share_of_misfit: Num(0.4),
         },
+        drift: vec![],
         summary: vec!["0.170 rad/s lies above the noise floor".into()],
     });
     let text = r.text();

@@ -70,7 +70,11 @@ pub const SPEC: EffectSpec = EffectSpec {
 fn held(h: &Held, x: &StepState) -> HeldInputs {
     HeldInputs {
         volts: 0.0,
-        load: torque(h.get(ParamId::CogAmp), h.get(ParamId::CogPhase), x.cogging_angle),
+        load: torque(
+            h.get(ParamId::CogAmp),
+            h.get(ParamId::CogPhase),
+            x.cogging_angle,
+        ),
     }
 }
 

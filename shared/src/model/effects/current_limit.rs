@@ -3,13 +3,15 @@
 //! its hardware limit; Mohan, Undeland, Robbins, *Power Electronics*, current-mode
 //! control). Held over a step, the applied voltage is the commanded one clamped to the
 //! voltages that hold `|i|` at `imax` in paper Eq. 1, `e ± Ra imax`, with `e` the
-//! back-EMF `kv (1 - kar |i|) w` and the brush drop `vb sign(i)` (the other entries'
-//! parameters, off when they are): below the limit the current rises towards it with
-//! La/Ra; at it, the logged current is flat-topped, the most common reason a logged step
-//! response departs from the motor model.
+//! back-EMF `kv (1 - kar |i|) w` and the brush drop `vb sign(i)`, and `Ra` the winding's
+//! hot resistance under `winding_heating` (the other entries' parameters, off when they
+//! are): below the limit the current rises towards it with La/Ra; at it, the logged current
+//! is flat-topped, the most common reason a logged step response departs from the motor
+//! model.
 
 use super::armature_reaction::flux_factor;
 use super::entry::{ids, one, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
+use super::winding_heating::resistance_factor;
 use crate::model::sim::sign;
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -70,6 +72,7 @@ pub fn limited(h: &Held, x: &StepState) -> f32 {
     let imax = h.get(ParamId::Imax);
     let flux = flux_factor(h.get(ParamId::Kar), x.current);
     let emf = x.kv * flux * x.omega + h.get(ParamId::Vb) * sign(x.current);
-    let reach = x.ra() * imax;
+    // The winding's hot resistance (`winding_heating`; a factor of 1 when it is off).
+    let reach = x.ra() * resistance_factor(x.winding_rise) * imax;
     x.volts.clamp(emf - reach, emf + reach)
 }

@@ -36,7 +36,9 @@ pub struct EffectSpec {
 pub enum Role {
     /// Voltage and load torque added to the step's inputs, held over the step (paper Eq. 5
     /// with the effect's terms as inputs): an entry of this role needs nothing in the
-    /// simulator but its function.
+    /// simulator but its function, and the state it reads when it has one of its own
+    /// ([`StepState::cogging_angle`], [`StepState::winding_rise`], kept by the host's
+    /// simulator).
     HeldInputs(HeldFn),
     /// A load torque that grows with the speed, taken at the step's end and solved with the
     /// step (the fan load: held at the step's start, it swung a light rotor further each
@@ -93,6 +95,9 @@ pub struct StepState {
     /// `cog_cycles theta`, wrapped to [-pi, pi] (the shaft angle `theta` from the record's
     /// start; 0 when cogging is off).
     pub cogging_angle: f32,
+    /// The winding's temperature rise since the record's start [K] (0 when winding heating
+    /// is off).
+    pub winding_rise: f32,
 }
 
 impl StepState {

@@ -19,6 +19,7 @@ pub use entry::{
     EffectBounds, EffectSpec, Held, HeldInputs, Role, Scales, Signature, SignatureSample, StepState,
 };
 
+use crate::capacity::MODEL_PARAMS;
 use crate::model::params::{ModelParams, MOTOR_SPECS};
 use crate::param_id::{ParamId, ParamSpec, PARAM_COUNT};
 
@@ -170,8 +171,35 @@ macro_rules! spec_field {
 const NAMES: [&str; PARAM_COUNT] = spec_field!(name: &str);
 const KEYS: [&str; PARAM_COUNT] = spec_field!(key: &str);
 const UNITS: [&str; PARAM_COUNT] = spec_field!(unit: &str);
-const DEFAULT_BOUNDS: [(f32, f32); PARAM_COUNT] = spec_field!(default_bounds: (f32, f32));
-const PHYSICAL_RANGES: [(f32, f32); PARAM_COUNT] = spec_field!(physical_range: (f32, f32));
+
+/// One field of the spec of each parameter a build holds ([`MODEL_PARAMS`]: every one on
+/// the host, a board's first six), so that a board's tables do not grow with the catalogue.
+macro_rules! held_field {
+    ($field:ident: $t:ty) => {{
+        let mut out: [$t; MODEL_PARAMS] = [SPECS[0].$field; MODEL_PARAMS];
+        let mut k = 0;
+        while k < MODEL_PARAMS {
+            out[k] = SPECS[k].$field;
+            k += 1;
+        }
+        out
+    }};
+}
+
+const DEFAULT_BOUNDS: [(f32, f32); MODEL_PARAMS] = held_field!(default_bounds: (f32, f32));
+const PHYSICAL_RANGES: [(f32, f32); MODEL_PARAMS] = held_field!(physical_range: (f32, f32));
+
+// A parameter a build does not hold reads its default, which its range must hold (every
+// build holds the motor's five).
+const _: () = {
+    let mut k = MOTOR_SPECS.len();
+    while k < PARAM_COUNT {
+        let (lo, hi) = SPECS[k].physical_range;
+        let value = ModelParams::default_of(ParamId::ALL[k]);
+        assert!(lo <= value && value <= hi, "a default outside its range");
+        k += 1;
+    }
+};
 
 /// Each entry's role in the model step, in catalogue order (a table of its own, so that a
 /// build links only what the simulator reads).
@@ -242,14 +270,28 @@ impl ParamId {
     }
 
     /// Paper's Table 1 bounds for the motor parameters; for effect parameters a default search
-    /// range that a caller usually narrows to the motor at hand.
+    /// range that a caller usually narrows to the motor at hand. (A parameter this build does
+    /// not hold, [`MODEL_PARAMS`], can only read its default: its bounds are that value.)
     pub const fn default_bounds(self) -> (f32, f32) {
-        DEFAULT_BOUNDS[self as usize]
+        match self as usize {
+            k if k < MODEL_PARAMS => DEFAULT_BOUNDS[k],
+            _ => self.only_default(),
+        }
     }
 
-    /// Smallest and largest physically meaningful value (inclusive).
+    /// Smallest and largest physically meaningful value (inclusive). (A parameter this build
+    /// does not hold, [`MODEL_PARAMS`], can only read its default: its range is that value.)
     pub const fn physical_range(self) -> (f32, f32) {
-        PHYSICAL_RANGES[self as usize]
+        match self as usize {
+            k if k < MODEL_PARAMS => PHYSICAL_RANGES[k],
+            _ => self.only_default(),
+        }
+    }
+
+    /// The range of a parameter this build does not hold: its default alone.
+    const fn only_default(self) -> (f32, f32) {
+        let value = ModelParams::default_of(self);
+        (value, value)
     }
 
     /// The key of this parameter after `NAME:` on the command line

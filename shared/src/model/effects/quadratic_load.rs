@@ -40,8 +40,6 @@ pub fn torque(kq: f32, w: f32) -> f32 {
     kq * w * w.abs()
 }
 
-
-
 /// The load at a step's end, `kq w1 |w1|`, where the speed at the end solves
 /// `w1 = w + g kq w1 |w1|`, with `w` the step's end without the load and `g < 0` the speed
 /// one newton-metre held over the step takes. `w1` keeps the sign of `w` (the load only
