@@ -12,7 +12,8 @@
 //! withheld `cogging-untold`, a `delay` of the speed reading of 0.5-1 sample, pairs as
 //! `static+offset` or `static+cogging-untold`).
 //! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
-//! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`.
+//! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`, `BLIND_TACHO=S`
+//! reads the speed with a tacho of white noise `S` rad/s instead of the encoder.
 
 use motor_id_tests::blind::{check, entry, label, SINGLES, WITHHELD};
 use std::collections::BTreeSet;

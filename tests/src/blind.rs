@@ -37,6 +37,21 @@ pub const SINGLES: [&str; 7] = [
 /// for them.
 pub const WITHHELD: [&str; 1] = ["cogging-untold"];
 
+/// White noise of a tacho that reads the speed instead of the encoder [rad/s]: the
+/// environment's `BLIND_TACHO` (e.g. `BLIND_TACHO=0.05`), else none (the encoder).
+fn tacho_noise() -> Option<f64> {
+    std::env::var("BLIND_TACHO").ok()?.parse().ok()
+}
+
+/// The speed sensor of every record: the [`LINES`]-line encoder, or a tacho with
+/// [`tacho_noise`] (a reading whose error is white, not an encoder's count difference).
+fn speed_sensor() -> SpeedSensor {
+    match tacho_noise() {
+        Some(_) => SpeedSensor::Tacho,
+        None => SpeedSensor::Encoder { lines: LINES },
+    }
+}
+
 /// The catalogue name of a case's effect; `None` for a withheld one.
 pub fn entry(effect: &str) -> Option<&'static str> {
     match effect {
@@ -191,8 +206,8 @@ pub fn check(dir: &Path, names: &[&str], rate: f64, seed: u64) -> Outcome {
     let mut noise = Vec::new();
     for (k, (name, shape, length)) in shapes.into_iter().enumerate() {
         let sensors = Sensors {
-            speed: SpeedSensor::Encoder { lines: LINES },
-            noise_omega: 0.0,
+            speed: speed_sensor(),
+            noise_omega: tacho_noise().unwrap_or(0.0),
             noise_current: NOISE_CURRENT,
             seed: seed * 100 + k as u64,
         };
