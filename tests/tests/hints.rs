@@ -157,6 +157,14 @@ fn prbs(rate: f64, seconds: f64) -> Input {
     }
 }
 
+/// `found` is one hint, holding each of `words`.
+fn one_hint_saying(found: &[String], words: &[&str]) {
+    assert_eq!(found.len(), 1, "{found:?}");
+    for w in words {
+        assert!(found[0].contains(w), "{w:?} not in {found:?}");
+    }
+}
+
 #[test]
 fn a_record_thinned_to_one_row_in_k_is_named_and_the_averaged_or_fast_record_gets_no_hint() {
     let dir = tempfile::tempdir().unwrap();
@@ -170,15 +178,14 @@ fn a_record_thinned_to_one_row_in_k_is_named_and_the_averaged_or_fast_record_get
     );
     let kept = dir.path().join("prbs_kept.csv");
     keep_one_in(&fast, &kept, 20);
-    let found = hints(dir.path(), &kept, &[]);
-    assert_eq!(found.len(), 1, "{found:?}");
-    for words in [
-        "jumps by more than half its range (0 to 24 V)",
-        "rougher than its sampling",
-        "--decimate K, which averages",
-    ] {
-        assert!(found[0].contains(words), "{words:?} not in {found:?}");
-    }
+    one_hint_saying(
+        &hints(dir.path(), &kept, &[]),
+        &[
+            "jumps by more than half its range (0 to 24 V)",
+            "rougher than its sampling",
+            "--decimate K, which averages",
+        ],
+    );
     // The same rows averaged by the reader, or all of them: the model fits, no hint.
     assert_eq!(
         hints(dir.path(), &fast, &["--decimate", "20"]),
@@ -202,22 +209,19 @@ fn a_record_thinned_to_one_row_in_k_is_named_and_the_averaged_or_fast_record_get
     );
     let kept = dir.path().join("steps_kept.csv");
     keep_one_in(&steps, &kept, 50);
-    let found = hints(dir.path(), &kept, &[]);
-    assert_eq!(found.len(), 1, "{found:?}");
-    for words in [
-        "just after the voltage changes",
-        "shorter than the record's step of 50.000 ms",
-        "record faster",
-    ] {
-        assert!(found[0].contains(words), "{words:?} not in {found:?}");
-    }
+    one_hint_saying(
+        &hints(dir.path(), &kept, &[]),
+        &[
+            "just after the voltage changes",
+            "shorter than the record's step of 50.000 ms",
+            "record faster",
+        ],
+    );
     assert_eq!(hints(dir.path(), &steps, &[]), Vec::<String>::new());
     // Averaged instead, the new 50 ms step is still longer than La/Ra: averaging does not
     // help a motor faster than the step, the same hint holds.
-    let found = hints(dir.path(), &steps, &["--decimate", "50"]);
-    assert_eq!(found.len(), 1, "{found:?}");
-    assert!(
-        found[0].contains("shorter than the record's step of 50.000 ms"),
-        "{found:?}"
+    one_hint_saying(
+        &hints(dir.path(), &steps, &["--decimate", "50"]),
+        &["shorter than the record's step of 50.000 ms"],
     );
 }

@@ -31,7 +31,7 @@
 //!
 //! Readings an ADC rounds with less noise than a count ([`crate::fit::pipeline::IdentifyConfig::adc_readings`]:
 //! a board's own records) add a term to either: while a modelled reading stays within one
-//! count its rounding error is one constant ([`crate::model::noise::Rounding`]), which no
+//! count its rounding error is one constant ([`crate::model::rounding::Rounding`]), which no
 //! number of samples averages away and which the block scores, centred per record, see only
 //! in part. Its covariance, summed stretch by stretch in [`ScoreBlocks`], is added to the
 //! larger of the two. On the commissioning benchmark the pinned estimates within 3 reported

@@ -9,7 +9,7 @@ use crate::fit::objective::{Cost, Objective};
 use crate::fit::score_blocks::ScoreBlocks;
 use crate::fit::space::Space;
 use crate::fit::sums::{RecordSums, Totals, SHIFT};
-use crate::model::noise::Rounding;
+use crate::model::rounding::Rounding;
 use crate::model::sim::Simulator;
 
 /// Gauss-Newton normal equations at one point of the unit cube.

@@ -68,7 +68,7 @@ pub struct IdentifyConfig {
     /// diagnosis' candidate effects), which saves its least-squares refits.
     pub profile_check: bool,
     /// The readings are an ADC's (a board's own records): the deviations count each
-    /// record's steady rounding error ([`crate::model::noise::rounding_error`]), which
+    /// record's steady rounding error ([`crate::model::rounding::Rounding`]), which
     /// averaging does not remove.
     pub adc_readings: bool,
 }

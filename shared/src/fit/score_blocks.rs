@@ -20,7 +20,7 @@
 
 use crate::capacity::MAX_FREE;
 use crate::fit::sums::{triangle_index, TRIANGLE};
-use crate::model::noise::Rounding;
+use crate::model::rounding::Rounding;
 
 /// Blocks per record: enough that the estimate is not dominated by a few blocks (its
 /// relative standard deviation is about `sqrt(2 / blocks)`, a quarter of a variance for the

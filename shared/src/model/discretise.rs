@@ -104,6 +104,21 @@ impl Discrete {
 }
 
 impl Discrete {
+    /// The increments of `[i, w]` over this step (paper Eq. 5, exact ZOH) from `(i0, w0)`
+    /// with `volts` and `load` held.
+    #[inline(always)]
+    pub fn increments(&self, i0: f32, w0: f32, volts: f32, load: f32) -> (f32, f32) {
+        let di = self.d[0][0] * i0 + self.d[0][1] * w0 + self.gv[0] * volts + self.gt[0] * load;
+        let dw = self.d[1][0] * i0 + self.d[1][1] * w0 + self.gv[1] * volts + self.gt[1] * load;
+        (di, dw)
+    }
+
+    /// Armature resistance Ra [ohm] behind these coefficients
+    /// ([`held_rotor_resistance`] of `ae`, `ge`).
+    pub fn resistance(&self) -> f32 {
+        held_rotor_resistance(self.ae, self.ge)
+    }
+
     /// The same motor's coefficients over `share` (0 to 1) of the step `dt` these were made
     /// for, `kv` its back-EMF constant: for an event within a step (a shaft that breaks
     /// away or reverses there moves for the rest of the step). The motor is recovered from
@@ -116,13 +131,8 @@ impl Discrete {
     #[inline(never)]
     pub fn over_share(&self, dt: f32, kv: f32, share: f32) -> Result<Discrete, Error> {
         let t = dt as f64;
-        let (ae, ge, am, gm) = (
-            self.ae as f64,
-            self.ge as f64,
-            self.am as f64,
-            self.gm as f64,
-        );
-        let ra = -ae / ge;
+        let (ae, am, gm) = (self.ae as f64, self.am as f64, self.gm as f64);
+        let ra = self.resistance() as f64;
         let la = -ra * t / log1p(ae);
         let (b, j) = if am == 0.0 {
             (0.0, -t / gm)
@@ -138,6 +148,12 @@ impl Discrete {
             .with(ParamId::Kv, kv);
         Discrete::new(&p, share * dt)
     }
+}
+
+/// Armature resistance Ra [ohm] from the held-rotor step `i += ae i + ge v` of paper Eq. 1
+/// ([`Discrete::ae`], [`Discrete::ge`]): `ae = e^{-Ra dt/La} - 1` and `ge = -ae / Ra`.
+pub fn held_rotor_resistance(ae: f32, ge: f32) -> f32 {
+    -ae / ge
 }
 
 /// `ln(1 + x)` for `x > -1`: its series where `1 + x` would lose `x`'s digits, else `ln`
@@ -301,10 +317,15 @@ mod tests {
     }
 
     fn check(p: ModelParams, dt: f32) {
-        let d = Discrete::new(&p, dt).unwrap();
+        check_step(&p, &Discrete::new(&p, dt).unwrap(), dt, 2e-5);
+    }
+
+    /// `d`, coefficients of `p` over `t` seconds, takes a state to where the fine RK4 does,
+    /// within `tolerance` of its scale.
+    fn check_step(p: &ModelParams, d: &Discrete, t: f32, tolerance: f64) {
         let x0 = [1.5f64, 40.0];
         let (v, tl) = (24.0, 0.3);
-        let r = reference_step(&p, dt as f64, x0, v, tl);
+        let r = reference_step(p, t as f64, x0, v, tl);
         for s in 0..2 {
             let got = x0[s]
                 + d.d[s][0] as f64 * x0[0]
@@ -313,8 +334,8 @@ mod tests {
                 + d.gt[s] as f64 * tl;
             let scale = r[s].abs().max(x0[s].abs()).max(1e-3);
             assert!(
-                (got - r[s]).abs() <= 2e-5 * scale,
-                "state {s}: zoh {got} vs reference {} at dt {dt} for {p:?}",
+                (got - r[s]).abs() <= tolerance * scale,
+                "state {s}: zoh {got} vs reference {} over {t} s for {p:?}",
                 r[s]
             );
         }
@@ -353,22 +374,7 @@ mod tests {
             let whole = Discrete::new(&p, dt).unwrap();
             for share in [0.01f32, 0.37, 0.9] {
                 let part = whole.over_share(dt, kv, share).unwrap();
-                let x0 = [1.5f64, 40.0];
-                let (v, tl) = (24.0, 0.3);
-                let r = reference_step(&p, (share * dt) as f64, x0, v, tl);
-                for s in 0..2 {
-                    let got = x0[s]
-                        + part.d[s][0] as f64 * x0[0]
-                        + part.d[s][1] as f64 * x0[1]
-                        + part.gv[s] as f64 * v
-                        + part.gt[s] as f64 * tl;
-                    let scale = r[s].abs().max(x0[s].abs());
-                    assert!(
-                        (got - r[s]).abs() <= 1e-4 * scale,
-                        "state {s}, share {share} of {dt} s: {got} vs {} for {p:?}",
-                        r[s]
-                    );
-                }
+                check_step(&p, &part, share * dt, 1e-4);
             }
         }
     }

@@ -12,5 +12,6 @@ pub mod noise;
 pub mod params;
 pub mod profile;
 pub mod record;
+pub mod rounding;
 pub mod sim;
 pub mod synth;

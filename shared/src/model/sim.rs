@@ -95,15 +95,6 @@ pub struct Reading {
     pub current: f32,
 }
 
-/// The increments of `[i, w]` over the step of `d` (paper Eq. 5, exact ZOH) from `(i0, w0)`
-/// with `volts` and `load` held.
-#[inline(always)]
-pub(crate) fn increments(d: &Discrete, i0: f32, w0: f32, volts: f32, load: f32) -> (f32, f32) {
-    let di = d.d[0][0] * i0 + d.d[0][1] * w0 + d.gv[0] * volts + d.gt[0] * load;
-    let dw = d.d[1][0] * i0 + d.d[1][1] * w0 + d.gv[1] * volts + d.gt[1] * load;
-    (di, dw)
-}
-
 /// Sign of `x` with 0 for 0.
 pub(crate) fn sign(x: f32) -> f32 {
     if x > 0.0 {
@@ -400,7 +391,7 @@ impl Simulator {
     /// it: the one copy of this arithmetic, so that every path agrees bit for bit.
     #[inline(always)]
     fn linear_update(&mut self, i0: f32, w0: f32, volts: f32, load: f32) {
-        let (di, dw) = increments(&self.disc, i0, w0, volts, load);
+        let (di, dw) = self.disc.increments(i0, w0, volts, load);
         self.current.add(di);
         self.omega.add(dw);
     }

@@ -165,8 +165,7 @@ impl Simulator {
             return;
         }
         let i1 = self.current.hi;
-        // Paper Eq. 1 with the rotor held: `ae = e^{-Ra dt/La} - 1`, `ge = -ae / Ra`.
-        let ra = -self.disc.ae / self.disc.ge;
+        let ra = self.disc.resistance();
         let gain = self.thermal_gain.first().copied().unwrap_or(0.0);
         if let Some(rise) = self.winding_rise.first_mut() {
             let hot = ra * winding_heating::resistance_factor(rise.hi);

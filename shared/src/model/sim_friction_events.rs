@@ -4,7 +4,7 @@
 //! viscous and Coulomb friction by up to 8 % on the coarse steps of a commissioning record
 //! (`docs/measurements/commissioning.md`).
 
-use super::{increments, sign, Simulator};
+use super::{sign, Simulator};
 
 impl Simulator {
     /// The electrical step with the rotor at rest over `share` of the step (0 to 1), from
@@ -89,13 +89,10 @@ impl Simulator {
             true => self.disc.over_share(self.dt, self.kv, left).ok(),
             false => None,
         };
-        let (di, dw) = increments(
-            part.as_ref().unwrap_or(&self.disc),
-            i,
-            0.0,
-            volts,
-            load + held,
-        );
+        let (di, dw) = part
+            .as_ref()
+            .unwrap_or(&self.disc)
+            .increments(i, 0.0, volts, load + held);
         self.current.set(i + di);
         self.omega.set(dw);
         self.shaft_stuck = sign(self.omega.hi) != direction;

@@ -101,10 +101,11 @@ pub struct StepState {
 }
 
 impl StepState {
-    /// Armature resistance Ra [ohm], from the held-rotor step: `ae = e^{-Ra dt/La} - 1`,
-    /// `ge = -ae / Ra` (computed when an entry asks, not on every step).
+    /// Armature resistance Ra [ohm], from the held-rotor step
+    /// ([`crate::model::discretise::held_rotor_resistance`]; computed when an entry asks,
+    /// not on every step).
     pub fn ra(&self) -> f32 {
-        -self.held_rotor.0 / self.held_rotor.1
+        crate::model::discretise::held_rotor_resistance(self.held_rotor.0, self.held_rotor.1)
     }
 }
 
