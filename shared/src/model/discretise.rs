@@ -131,8 +131,14 @@ impl Discrete {
     #[inline(never)]
     pub fn over_share(&self, dt: f32, kv: f32, share: f32) -> Result<Discrete, Error> {
         let t = dt as f64;
-        let (ae, am, gm) = (self.ae as f64, self.am as f64, self.gm as f64);
-        let ra = self.resistance() as f64;
+        let (ae, ge, am, gm) = (
+            self.ae as f64,
+            self.ge as f64,
+            self.am as f64,
+            self.gm as f64,
+        );
+        // [`held_rotor_resistance`] in f64, as the rest of the recovery.
+        let ra = -ae / ge;
         let la = -ra * t / log1p(ae);
         let (b, j) = if am == 0.0 {
             (0.0, -t / gm)
