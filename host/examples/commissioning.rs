@@ -16,9 +16,13 @@ use motor_id_shared::model::record::Record;
 use motor_id_shared::model::synth::table_one_motor;
 use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::limits::Limits;
-use motor_id_shared::wire::protocol::Refusal;
+use motor_id_shared::wire::protocol::{BoardMessage, JobStage, Refusal};
 use motor_id_shared::ModelParams;
 use std::collections::BTreeMap;
+
+/// The identifiability analysis's simulations where no profile check follows: a
+/// central-difference Jacobian of the six parameters and the point itself.
+const ANALYSIS_SIMULATIONS: u32 = 2 * 6 + 1;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -44,6 +48,7 @@ fn main() {
     let (mut chi_within, mut chi_far) = (Vec::new(), Vec::new());
     let mut seconds = Vec::new();
     let mut evaluations = Vec::new();
+    let mut simulations = Vec::new();
     for m in 0..motors {
         let motor = table_one_motor(m as u64 + 1);
         let [ra, la, j, b, kv] = ParamId::MOTOR.map(|p| motor.get(p));
@@ -57,7 +62,19 @@ fn main() {
             (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(adc_bits);
         }
         let current_count = plant.resolution.current;
-        let c = commission(plant, limits, 1, None, &mut |_| {});
+        // The profile check's progress counts every simulation of the fit so far (search,
+        // refinement, the analysis's Jacobian, the check); the report counts the first two.
+        let mut checked = None;
+        let c = commission(plant, limits, 1, None, &mut |m| {
+            if let BoardMessage::Progress {
+                stage: JobStage::Check,
+                evaluations,
+                ..
+            } = m
+            {
+                checked = Some(*evaluations);
+            }
+        });
         seconds.push(c.seconds);
         like += looks_like_motor as usize;
         let report = match c.result {
@@ -78,6 +95,7 @@ fn main() {
             }
         };
         evaluations.push(report.evaluations);
+        simulations.push(checked.unwrap_or(report.evaluations + ANALYSIS_SIMULATIONS));
         let mut ok = true;
         let mut worst_z = 0.0f32;
         for &id in ParamId::ALL[..=ParamId::Tc.index()].iter() {
@@ -145,7 +163,9 @@ fn main() {
     }
     seconds.sort_by(f32::total_cmp);
     evaluations.sort();
-    let at = |q: f64| evaluations[((evaluations.len() - 1) as f64 * q) as usize];
+    simulations.sort();
+    let quantile = |v: &[u32], q: f64| v[((v.len() - 1) as f64 * q) as usize];
+    let at = |q: f64| quantile(&evaluations, q);
     let pct = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
     println!(
         "motors {motors} (look like motors {like}), drive sampled at {rate} Hz, limits {limits:?}"
@@ -207,6 +227,13 @@ fn main() {
         at(0.5),
         at(0.9),
         at(1.0)
+    );
+    println!(
+        "simulations of the whole fit (with the analysis and the profile check): median {}, 75 % {}, 90 % {}, most {}",
+        quantile(&simulations, 0.5),
+        quantile(&simulations, 0.75),
+        quantile(&simulations, 0.9),
+        quantile(&simulations, 1.0)
     );
     println!(
         "experiment: median {:.1} s, longest {:.1} s",

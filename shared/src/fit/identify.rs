@@ -99,9 +99,9 @@ pub fn identify_from(
     // stopped the fit, it leaves nothing pinned.
     if let (Some(lm), true, Ok(r)) = (&cfg.refine, cfg.profile_check, &mut result) {
         if !r.completed {
-            profile_check::unchecked(&mut r.identifiability);
-        } else if profile_check::applies(&r.identifiability) {
-            let iterations = profile_check::runs(&r.identifiability) * lm.max_iterations;
+            profile_check::unchecked(&mut r.identifiability, &space);
+        } else if profile_check::applies(&r.identifiability, &space) {
+            let iterations = profile_check::runs(&r.identifiability, &space) * lm.max_iterations;
             let before = r.evaluations + r.identifiability.evaluations;
             let best = r.cost.fitness();
             let mut iteration = 0;
