@@ -11,11 +11,17 @@
 //! detents per revolution), `heating` (winding heating, on 40 s reversing cycles), the
 //! withheld `cogging-untold`, a `delay` of the speed reading of 0.5-1 sample, pairs as
 //! `static+offset` or `static+cogging-untold`).
+//! CASES `without` (or `without:limit,cogging`) runs instead each catalogue entry's effect
+//! alone with that entry left out of the search (`--without`): what is named for it (only a
+//! part of the truth may be: the Coulomb friction of static friction), whether the verdict
+//! says unexplained, the partial stand-ins and where the remainder lies.
 //! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
 //! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`, `BLIND_TACHO=S`
 //! reads the speed with a tacho of white noise `S` rad/s instead of the encoder.
 
-use motor_id_tests::blind::{check, entry, label, SINGLES, WITHHELD};
+use motor_id_tests::blind::{
+    check, check_without, components, entry, label, OLDER, SINGLES, WITHHELD,
+};
 use std::collections::BTreeSet;
 
 fn main() {
@@ -24,6 +30,10 @@ fn main() {
     let rates: Vec<f64> = args.get(1).map_or(vec![2000.0, 5000.0, 10000.0], |a| {
         a.split(',').map(|r| r.parse().expect("RATES")).collect()
     });
+    if let Some(pick) = args.get(2).and_then(|a| a.strip_prefix("without")) {
+        left_out(seeds, &rates, pick.strip_prefix(':'));
+        return;
+    }
     let mut cases: Vec<Vec<&str>> = vec![vec![]];
     cases.extend(SINGLES.iter().map(|x| vec![*x]));
     for (i, a) in SINGLES.iter().enumerate() {
@@ -37,9 +47,15 @@ fn main() {
     // A speed reading delayed by half a sample to one, alone and beside each entry.
     cases.push(vec!["delay"]);
     cases.extend(SINGLES.iter().map(|x| vec![*x, "delay"]));
+    // Cases named: each `a+b` (or `null`), any entry's case name.
     if let Some(pick) = args.get(2).filter(|a| *a != "all") {
-        let wanted: Vec<&str> = pick.split(',').collect();
-        cases.retain(|c| wanted.contains(&label(c).as_str()));
+        cases = pick
+            .split(',')
+            .map(|c| match c {
+                "null" => vec![],
+                c => c.split('+').collect(),
+            })
+            .collect();
     }
 
     println!(
@@ -102,4 +118,104 @@ fn main() {
          noise estimate off by more than 20 %: {noise_bad}/{total}",
         100.0 * right_all as f64 / total as f64
     );
+}
+
+/// The table of each entry left out (`--without`): its effect alone in the plant.
+fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
+    let mut effects: Vec<&str> = OLDER.to_vec();
+    effects.extend(SINGLES);
+    effects.push("delay");
+    if let Some(pick) = pick {
+        let wanted: Vec<&str> = pick.split(',').collect();
+        effects.retain(|e| wanted.contains(e));
+    }
+    println!("| effect, left out | rate | a name not true | unexplained | partial stand-ins | remainder's where |");
+    println!("|---|---|---|---|---|---|");
+    let (mut forced_all, mut explained_all, mut total) = (0, 0, 0);
+    for effect in effects {
+        let left = entry(effect).expect("a catalogue entry");
+        let allowed: BTreeSet<String> = components(effect)
+            .into_iter()
+            .filter(|c| *c != left)
+            .map(str::to_string)
+            .collect();
+        for &rate in rates {
+            let (mut forced, mut unexplained) = (0, 0);
+            let mut partial: BTreeSet<String> = BTreeSet::new();
+            let mut wheres: BTreeSet<String> = BTreeSet::new();
+            for seed in 1..=seeds {
+                let dir = tempfile::tempdir().expect("temporary directory");
+                let kept = std::env::var_os("BLIND_KEEP").map(|d| {
+                    let d =
+                        std::path::Path::new(&d).join(format!("{effect}-without-{rate}-{seed}"));
+                    std::fs::create_dir_all(&d).expect("BLIND_KEEP folder");
+                    d
+                });
+                let o = check_without(
+                    kept.as_deref().unwrap_or(dir.path()),
+                    &[effect],
+                    rate,
+                    seed,
+                    &[left],
+                );
+                let wrong = !o.named.is_subset(&allowed);
+                let stand_ins: Vec<String> = o.verdict["partial"]
+                    .as_array()
+                    .map(|a| {
+                        a.iter()
+                            .filter_map(|p| p["name"].as_str().map(str::to_string))
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                let place = where_of(&o.verdict);
+                eprintln!(
+                    "{effect} without {left} @ {rate} Hz seed {seed}: named {:?}{} unexplained {} partial {stand_ins:?} where {place} ({:.1} s)",
+                    o.named,
+                    if wrong { " FORCED" } else { "" },
+                    o.unexplained,
+                    o.seconds
+                );
+                forced += usize::from(wrong);
+                unexplained += usize::from(o.unexplained);
+                partial.extend(stand_ins);
+                wheres.insert(place);
+            }
+            forced_all += forced;
+            explained_all += seeds as usize - unexplained;
+            total += seeds as usize;
+            println!(
+                "| {effect} without {left} | {} kHz | {forced}/{seeds} | {unexplained}/{seeds} | {} | {} |",
+                rate / 1000.0,
+                partial.into_iter().collect::<Vec<_>>().join(", "),
+                wheres.into_iter().collect::<Vec<_>>().join("; ")
+            );
+        }
+    }
+    println!(
+        "\nleft out: a name not true {forced_all}/{total}; not called unexplained {explained_all}/{total}"
+    );
+}
+
+/// Where the verdict's remainder lies, in a few words: the drift of a parameter along a
+/// record, or the regime that holds most of the misfit.
+fn where_of(verdict: &serde_json::Value) -> String {
+    let r = &verdict["remainder"];
+    if r.is_null() {
+        return "-".into();
+    }
+    let mut parts = Vec::new();
+    if let Some(d) = r["drift"][0]["param"].as_str() {
+        parts.push(format!("drift of {d}"));
+    }
+    let regimes = r["regimes"].as_array().cloned().unwrap_or_default();
+    if let Some(top) = regimes.iter().max_by(|a, b| {
+        let lift = |x: &serde_json::Value| {
+            x["share_of_misfit"].as_f64().unwrap_or(0.0)
+                / x["share_of_samples"].as_f64().unwrap_or(1.0).max(1e-9)
+        };
+        lift(a).total_cmp(&lift(b))
+    }) {
+        parts.push(top["short"].as_str().unwrap_or("?").to_string());
+    }
+    parts.join(", ")
 }

@@ -3,7 +3,7 @@
 
 use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
-use super::naming::{stand_in_reason, stand_ins, Channel, PartialStandIn};
+use super::naming::{stand_in_reason, stand_ins, unpinned_own, Channel, PartialStandIn};
 use super::regimes::WhereReport;
 use super::remainder::{floor, unexplained, Remainder};
 use super::repeatability::Repeatability;
@@ -288,9 +288,50 @@ impl DiagnoseReport {
             }
             None => Vec::new(),
         };
+        // An extension that only matches the entry it extends, left out by the user: a
+        // stand-in for that entry (search::Search::needed).
+        let mut partial = partial;
+        for x in &search.standing_in {
+            partial.push(PartialStandIn {
+                name: x.effect.name(),
+                share_of_excess: Num(channels[0].share(x.before, x.after)),
+                channel: channels[0].name,
+                why: format!(
+                    "no better on the held-out records than {}, which it extends and which was left out: what it explains is that entry's part, not its own",
+                    x.parent.name()
+                ),
+            });
+        }
+        // A named effect whose own parameters the final fit does not pin: a stand-in too
+        // (naming::unpinned_own); the others stay named.
+        let final_fit = &after.fit.result.identifiability;
+        let mut loose: Vec<Effect> = Vec::new();
+        if stand_in.is_none() {
+            let mut before = channels[0].before;
+            for (e, s) in search.named() {
+                let free = unpinned_own(e, final_fit);
+                if !free.is_empty() {
+                    loose.push(e);
+                    partial.push(PartialStandIn {
+                        name: e.name(),
+                        share_of_excess: Num(channels[0].share(before, s.holdout_rmse)),
+                        channel: channels[0].name,
+                        why: format!(
+                            "the records do not pin its {}: they do not show its form, only that it shaves the misfit",
+                            free.join(", ")
+                        ),
+                    });
+                }
+                before = s.holdout_rmse;
+            }
+        }
         let named = stand_in.is_none();
-        let first = first.filter(|_| named);
-        let chosen = search.chosen().filter(|_| named);
+        let names = |e: &Effect| named && !loose.contains(e);
+        // The verdict's effect: the first one named (a stand-in before it passed over).
+        let mut named_chain = search.chain.iter().filter(|(e, _)| names(e));
+        let chosen = named_chain.next();
+        let then = named_chain.next();
+        let first = chosen.map(|(e, _)| *e);
         let verdict = Verdict {
             effect: first.map(|e| e.name()),
             holdout_rmse_before: Num(baseline.holdout_rmse),
@@ -309,20 +350,16 @@ impl DiagnoseReport {
                 base_params_shift: motor_shift(&baseline.fit.result.params, &s.fit.result.params),
             }),
             second: Second {
-                effect: search.chain.get(1).filter(|_| named).map(|(e, _)| e.name()),
-                fit: search
-                    .chain
-                    .get(1)
-                    .filter(|_| named)
-                    .map(|(e, s)| SecondFit {
-                        holdout_rmse_after: Num(s.holdout_rmse),
-                        train_rmse_after: Num(s.train_rmse),
-                        effect_params: values(&s.fit.result.params, e.params()),
-                    }),
+                effect: then.map(|(e, _)| e.name()),
+                fit: then.map(|(e, s)| SecondFit {
+                    holdout_rmse_after: Num(s.holdout_rmse),
+                    train_rmse_after: Num(s.train_rmse),
+                    effect_params: values(&s.fit.result.params, e.params()),
+                }),
             },
             effects: search
                 .named()
-                .filter(|_| named)
+                .filter(|(e, _)| names(e))
                 .map(|(e, s)| NamedEffect {
                     name: e.name(),
                     params: values(&s.fit.result.params, e.params()),
@@ -332,7 +369,10 @@ impl DiagnoseReport {
             partial,
             params: reported_params(&after.fit.result, &after.fit.spec),
             repeatability_floor: repeatability.holdout_floor(),
-            unexplained: remainder.is_some() || current.as_ref().is_some_and(|c| c.unexplained),
+            // A stand-in's share of the misfit has no named cause.
+            unexplained: remainder.is_some()
+                || current.as_ref().is_some_and(|c| c.unexplained)
+                || !loose.is_empty(),
             remainder,
             current,
         };

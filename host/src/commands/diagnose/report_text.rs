@@ -49,24 +49,32 @@ impl DiagnoseReport {
             }
             _ if !v.partial.is_empty() => {
                 s += "verdict: no cause named (the effects found only stand in for part of the misfit)\n";
-                for p in &v.partial {
-                    s += &format!(
-                        "partial stand-in: {}: removes {:.0} % of the held-out {} misfit above the floor; not named: {}\n",
-                        p.name,
-                        100.0 * p.share_of_excess.decimal(),
-                        p.channel,
-                        p.why
-                    );
-                }
             }
             _ => s +=
                 "verdict: null (no effect of the catalogue improves the held-out fit significantly)\n",
+        }
+        for p in &v.partial {
+            s += &format!(
+                "partial stand-in: {}: removes {:.0} % of the held-out {} misfit above the floor; not named: {}\n",
+                p.name,
+                100.0 * p.share_of_excess.decimal(),
+                p.channel,
+                p.why
+            );
         }
         match &v.remainder {
             Some(r) => {
                 for line in &r.summary {
                     s += &format!("unexplained: {line}\n");
                 }
+            }
+            None if v.unexplained && !v.partial.is_empty() => {
+                let names: Vec<&str> = v.partial.iter().map(|p| p.name).collect();
+                s += &format!(
+                    "unexplained: the held-out misfit ({:.4} rad/s) reaches the floor only with the partial stand-ins ({}): no named cause accounts for their share\n",
+                    v.holdout_rmse_after.decimal(),
+                    names.join(", ")
+                );
             }
             None => {
                 let (floor_rmse, kind) = floor(

@@ -37,6 +37,27 @@ pub struct Search {
     /// The effects named, in the order they were added, each with the fit of the model up to
     /// it (the last: the final model). An effect that extends another stands for both.
     pub chain: Vec<(Effect, Scored)>,
+    /// The fits of entries left out (`--without`) that a scored effect extends, the
+    /// baseline plus each: the reference its own part is judged against ([`Search::needed`]).
+    pub left_out_parents: Vec<(Effect, Scored)>,
+    /// Effects significant against the baseline that are not named because they only
+    /// match the entry they extend, which was left out: stand-ins for it, in the order
+    /// found.
+    pub standing_in: Vec<StandingIn>,
+}
+
+/// An extension the search passed over: it only matches the entry it extends, which was
+/// left out ([`Search::needed`]).
+#[derive(Clone, Debug)]
+pub struct StandingIn {
+    /// The effect.
+    pub effect: Effect,
+    /// The entry it extends, left out.
+    pub parent: Effect,
+    /// Held-out speed RMSE of the baseline, and with the effect [rad/s].
+    pub before: f32,
+    /// See `before`.
+    pub after: f32,
 }
 
 impl Search {
@@ -52,22 +73,31 @@ impl Search {
 
     /// The effect the data needs of `effect` and the one it extends: the parent, unless
     /// `effect`'s fit passes the significance rule against the parent's own fit (a nested
-    /// effect that only matches its parent is not named).
-    pub fn needed(&self, effect: Effect) -> Effect {
+    /// effect that only matches its parent is not named). `None` when the parent was left
+    /// out (`--without`) and `effect` only matches it: what `effect` explains is the
+    /// parent's part, which may not be named, so neither is.
+    pub fn needed(&self, effect: Effect) -> Option<Effect> {
         let Some(parent) = effect.parent() else {
-            return effect;
+            return Some(effect);
         };
         let fit = |e: Effect| self.scored.iter().find(|(x, _)| *x == e).map(|(_, s)| s);
-        match (fit(effect), fit(parent)) {
-            (Some(child), Some(parent_fit)) if self.significant(parent, parent_fit) => {
+        let own_part_shows = |parent_fit: &Scored| {
+            fit(effect).is_none_or(|child| {
                 let candidate = child.candidate(effect, &self.scales);
-                if significant(&parent_fit.reference(), &candidate, &self.holdout) {
+                significant(&parent_fit.reference(), &candidate, &self.holdout)
+            })
+        };
+        let left_out = self.left_out_parents.iter().find(|(e, _)| *e == parent);
+        match (fit(parent), left_out) {
+            (Some(parent_fit), _) if self.significant(parent, parent_fit) => {
+                Some(if own_part_shows(parent_fit) {
                     effect
                 } else {
                     parent
-                }
+                })
             }
-            _ => effect,
+            (None, Some((_, parent_fit))) => own_part_shows(parent_fit).then_some(effect),
+            _ => Some(effect),
         }
     }
 
@@ -148,6 +178,15 @@ impl Context<'_> {
         self.data
             .score(refit_from(&self.data.train, &self.quiet, &spec, start)?)
     }
+}
+
+/// The fit of `effect` among `scored`.
+fn fit_of(scored: &[(Effect, Scored)], effect: Effect) -> &Scored {
+    scored
+        .iter()
+        .find(|(e, _)| *e == effect)
+        .map(|(_, s)| s)
+        .expect("every usable effect was scored")
 }
 
 /// Whether the model of `set` holds `effect`'s parameters: `effect` is in it, or an effect
@@ -239,6 +278,22 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         scored.push((*effect, f?));
     }
     scored.sort_by(|a, b| a.1.holdout_joint.total_cmp(&b.1.holdout_joint));
+    // The entries left out that a usable effect extends: fitted as the reference its own
+    // part is judged against, never named.
+    let parents: Vec<Effect> = usable
+        .iter()
+        .filter_map(|e| e.parent())
+        .filter(|p| without.contains(p))
+        .fold(Vec::new(), |mut v, p| {
+            if !v.contains(&p) {
+                v.push(p);
+            }
+            v
+        });
+    let mut left_out_parents = Vec::new();
+    for p in parents {
+        left_out_parents.push((p, cx.add(&spec, p, &base_params)?));
+    }
     let mut found = Search {
         baseline,
         holdout,
@@ -246,21 +301,32 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         where_,
         scored,
         chain: Vec::new(),
+        left_out_parents,
+        standing_in: Vec::new(),
     };
-    let Some(first) = found
-        .scored
-        .iter()
-        .find(|(e, s)| found.significant(*e, s))
-        .map(|(e, _)| found.needed(*e))
-    else {
+    // The first effect: the best significant one the data needs; one that only matches
+    // the entry it extends, left out, stands in for it and is passed over.
+    let mut first = None;
+    let mut standing_in: Vec<StandingIn> = Vec::new();
+    for (e, s) in &found.scored {
+        if !found.significant(*e, s) {
+            continue;
+        }
+        match found.needed(*e) {
+            Some(needed) => first = first.or(Some(needed)),
+            None => standing_in.push(StandingIn {
+                effect: *e,
+                parent: e.parent().expect("only an extension stands in"),
+                before: found.baseline.holdout_rmse,
+                after: s.holdout_rmse,
+            }),
+        }
+    }
+    found.standing_in = standing_in;
+    let Some(first) = first else {
         return Ok(found);
     };
-    let first_fit = found
-        .scored
-        .iter()
-        .find(|(e, _)| *e == first)
-        .map(|(_, s)| s.clone())
-        .expect("every usable effect was scored");
+    let first_fit = fit_of(&found.scored, first).clone();
 
     // Forward: more effects, one at a time, on what is left after the ones named so far.
     let mut chain: Vec<(Effect, Scored)> = vec![(first, first_fit)];
@@ -276,10 +342,11 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         // its extension) adds nothing.
         let adds = |e: &Effect| e.params().iter().any(|id| !model.free[id.index()]);
         let names: Vec<&str> = in_model.iter().map(|e| e.name()).collect();
+        let standing_in = |e: &Effect| found.standing_in.iter().any(|s| s.effect == *e);
         let candidates: Vec<Effect> = usable
             .iter()
             .copied()
-            .filter(|e| !in_model.contains(e) && adds(e))
+            .filter(|e| !in_model.contains(e) && adds(e) && !standing_in(e))
             .collect();
         let fits = in_parallel(candidates.len(), |k| {
             let effect = candidates[k];
@@ -292,10 +359,12 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         });
         for (effect, f) in candidates.iter().zip(fits) {
             let f = f?;
-            if significant(&reference, &f.candidate(*effect, &scales), &found.holdout)
-                && best
-                    .as_ref()
-                    .is_none_or(|(_, b)| f.holdout_joint < b.holdout_joint)
+            if !significant(&reference, &f.candidate(*effect, &scales), &found.holdout) {
+                continue;
+            }
+            if best
+                .as_ref()
+                .is_none_or(|(_, b)| f.holdout_joint < b.holdout_joint)
             {
                 best = Some((*effect, f));
             }
