@@ -23,7 +23,10 @@
 //! A second rule, [`unpinned_own`]: a named effect's own parameters must be pinned by the
 //! final fit. An effect whose form the records do not show (a parameter free to slide)
 //! only shaves the misfit; it is a partial stand-in, the others stay named, and the
-//! verdict says unexplained (a stand-in's share of the misfit has no named cause). It is
+//! verdict says unexplained (a stand-in's share of the misfit has no named cause). It
+//! needs current: from the speed alone the motor's flat directions (paper Eq. 6) take a
+//! torque-like parameter with them (Coulomb friction's `tc` scales with J and B), so it is
+//! unpinned whatever the records show. It is
 //! judged on the final model only: on a model that lacks another effect, the structured
 //! residual widens every deviation (asymmetric friction's `ka` before the bridge dead
 //! time beside it is added). Nor does the search pass it over for the next best: that is

@@ -306,7 +306,10 @@ impl DiagnoseReport {
         // (naming::unpinned_own); the others stay named.
         let final_fit = &after.fit.result.identifiability;
         let mut loose: Vec<Effect> = Vec::new();
-        if stand_in.is_none() {
+        // With current only: from the speed alone the motor has flat directions (paper
+        // Eq. 6) along which a torque-like parameter scales too (Coulomb friction's tc with
+        // J and B), so it is unpinned whatever the records show of its form.
+        if stand_in.is_none() && data.with_current {
             let mut before = channels[0].before;
             for (e, s) in search.named() {
                 let free = unpinned_own(e, final_fit);
