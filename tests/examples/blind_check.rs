@@ -22,6 +22,7 @@
 use motor_id_tests::blind::{
     check, check_without, components, entry, label, OLDER, SINGLES, WITHHELD,
 };
+use motor_id_tests::partial_stand_ins;
 use std::collections::BTreeSet;
 
 fn main() {
@@ -159,14 +160,10 @@ fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
                     &[left],
                 );
                 let wrong = !o.named.is_subset(&allowed);
-                let stand_ins: Vec<String> = o.verdict["partial"]
-                    .as_array()
-                    .map(|a| {
-                        a.iter()
-                            .filter_map(|p| p["name"].as_str().map(str::to_string))
-                            .collect()
-                    })
-                    .unwrap_or_default();
+                let stand_ins: Vec<String> = partial_stand_ins(&o.verdict)
+                    .into_iter()
+                    .map(|(name, _)| name)
+                    .collect();
                 let place = where_of(&o.verdict);
                 eprintln!(
                     "{effect} without {left} @ {rate} Hz seed {seed}: named {:?}{} unexplained {} partial {stand_ins:?} where {place} ({:.1} s)",

@@ -197,6 +197,24 @@ pub fn named_effects(verdict: &Value) -> Vec<String> {
         .collect()
 }
 
+/// The partial stand-ins of a diagnosis `verdict` (`verdict.partial`): each one's name and
+/// why it is not named, in order.
+pub fn partial_stand_ins(verdict: &Value) -> Vec<(String, String)> {
+    verdict["partial"]
+        .as_array()
+        .expect("verdict.partial")
+        .iter()
+        .map(|p| {
+            let text = |k: &str| {
+                p[k].as_str()
+                    .expect("a stand-in's name and why")
+                    .to_string()
+            };
+            (text("name"), text("why"))
+        })
+        .collect()
+}
+
 /// `motor-id simulate ARGS --out OUT`.
 pub fn simulate(out: &Path, args: &[&str]) {
     let mut all = vec!["simulate"];

@@ -16,7 +16,12 @@ use motor_id_tests::{assert_within_3_percent, json, run, run_err, run_ok, s, PAP
 /// The drive's sample rate in these tests [Hz].
 const RATE: f64 = 5_000.0;
 
-/// `m` with Coulomb friction of 5 % of the torque the default limits allow, behind a drive
+/// Coulomb friction of 5 % of the torque the default limits allow `m` [N m].
+fn coulomb(m: &Motor) -> f64 {
+    0.05 * m.kv * Limits::DEFAULT.current as f64
+}
+
+/// `m` with Coulomb friction `tc` ([`coulomb`]), behind a drive
 /// whose 12-bit ADC spans ±1.2 times the speed and current limits.
 fn drive(m: Motor, tc: f64, seed: u64) -> ReferenceDrive {
     drive_at(RATE, m, tc, seed)
@@ -81,7 +86,7 @@ fn corners_of_the_box_commission_within_three_percent_on_the_reference_plant() {
         },
     ];
     for (k, m) in corners.into_iter().enumerate() {
-        let tc = 0.05 * m.kv * limits.current as f64;
+        let tc = coulomb(&m);
         let c = commission(drive(m, tc, k as u64 + 1), limits, 1, None, &mut |_| {});
         let report = c
             .result
@@ -137,7 +142,7 @@ fn a_long_electrical_time_constant_is_waited_for_on_the_reference_plant() {
         b: 0.07861381,
         kv: 0.0430457,
     };
-    let tc = 0.05 * m.kv * limits.current as f64;
+    let tc = coulomb(&m);
     let mut d = drive_at(20_000.0, m, tc, 3);
     let c = commission(&mut d, limits, 1, None, &mut |_| {});
     let plan = c.plan.expect("probed");
@@ -163,7 +168,7 @@ fn a_long_electrical_time_constant_is_waited_for_on_the_reference_plant() {
         b: 0.2070786,
         kv: 0.18497594,
     };
-    let tc = 0.05 * m.kv * limits.current as f64;
+    let tc = coulomb(&m);
     let mut d = drive_at(20_000.0, m, tc, 4);
     let c = commission(&mut d, limits, 1, None, &mut |_| {});
     assert_eq!(
@@ -284,7 +289,7 @@ fn a_viscous_dominated_motor_s_deviations_cover_its_curved_valley_on_the_referen
         b: 0.014806739,
         kv: 0.023001544,
     };
-    let tc = 0.05 * m.kv * limits.current as f64;
+    let tc = coulomb(&m);
     for seed in 1..=2 {
         let c = commission(
             drive_at(20_000.0, m, tc, seed),

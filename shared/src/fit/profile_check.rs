@@ -233,6 +233,18 @@ pub fn unchecked(id: &mut Identifiability, space: &Space) {
     }
 }
 
+/// `lm` for the check's refits: they stop once an accepted step lowers the cost by less
+/// than `chi2` residual variances (`sigma2`) from about `cost`, not at the fit's own
+/// tolerance (the check compares rises of the cost with 9 and 1, not its last digits).
+fn stopping_at(lm: &LmConfig, chi2: f64, sigma2: f64, cost: &Cost) -> LmConfig {
+    LmConfig {
+        rel_tol: lm
+            .rel_tol
+            .max(chi2 * sigma2 / cost.sse.max(f64::MIN_POSITIVE)),
+        ..*lm
+    }
+}
+
 /// The profile at one side: `id` fixed at `value`, the other free parameters of `space`
 /// refitted by least squares from `at`; the rise of the cost over `cost` in units of the
 /// residual variance `sigma2`. None when the profile cannot be set up (a value the
@@ -254,15 +266,13 @@ fn profile_rise(
 ) -> Option<f64> {
     let profile = space.fixing(at, id, value as f32).ok()?;
     let start = profile.unit(at);
-    // The rise is wanted to a tenth of the 9 it is compared with: the refit stops once a
-    // step gains less than PROFILE_TOL of chi^2, not at the fit's own tolerance.
-    let loose = LmConfig {
-        rel_tol: lm
-            .rel_tol
-            .max(PROFILE_TOL * sigma2 / cost.sse.max(f64::MIN_POSITIVE)),
-        ..*lm
-    };
-    let r = runs.refine(objective, &profile, &start, &loose)?;
+    // The rise is wanted to a tenth of the 9 it is compared with.
+    let r = runs.refine(
+        objective,
+        &profile,
+        &start,
+        &stopping_at(lm, PROFILE_TOL, sigma2, cost),
+    )?;
     Some(((r.cost.sse - cost.sse) / sigma2).max(1e-12))
 }
 
@@ -285,15 +295,9 @@ fn walk_the_valley(
     let free = space.free();
     let u0 = space.unit(at);
     let mut farthest = [0.0f64; MAX_FREE];
-    // A point is judged against VALLEY_FIT: the descent onto the valley stops once a step
-    // gains less than a tenth of it, not at the fit's own tolerance (the crawl along the
-    // valley's floor that follows would not change the verdict).
-    let walk_lm = LmConfig {
-        rel_tol: lm
-            .rel_tol
-            .max(0.1 * VALLEY_FIT * sigma2 / cost.sse.max(f64::MIN_POSITIVE)),
-        ..*lm
-    };
+    // A point is judged against VALLEY_FIT: the descent onto the valley stops at a tenth
+    // of it (the crawl along the valley's floor that follows would not change the verdict).
+    let walk_lm = stopping_at(lm, 0.1 * VALLEY_FIT, sigma2, cost);
     for direction in &id.unpinned {
         // The direction in unit coordinates (natural = per_unit * unit).
         let mut du = [0.0f32; MAX_FREE];

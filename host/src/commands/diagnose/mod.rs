@@ -13,6 +13,7 @@ mod coverage;
 mod data;
 mod drift;
 mod effect_fit;
+mod found;
 mod naming;
 mod plot;
 mod regimes;

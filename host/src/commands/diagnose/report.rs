@@ -3,11 +3,11 @@
 
 use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
+use super::found::Search;
 use super::naming::{stand_in_reason, stand_ins, unpinned_own, Channel, PartialStandIn};
 use super::regimes::WhereReport;
 use super::remainder::{floor, unexplained, Remainder};
 use super::repeatability::Repeatability;
-use super::search::Search;
 use crate::report::identify::reported_params;
 use crate::report::{estimates, ByParam, Num};
 use motor_id_shared::model::effects::Effect;
@@ -275,7 +275,7 @@ impl DiagnoseReport {
             }))
             .collect();
         let stand_in = stand_in_reason(&channels);
-        let partial = match &stand_in {
+        let mut partial = match &stand_in {
             Some((why, k)) => {
                 let (names, steps): (Vec<&'static str>, Vec<f32>) = search
                     .named()
@@ -289,8 +289,7 @@ impl DiagnoseReport {
             None => Vec::new(),
         };
         // An extension that only matches the entry it extends, left out by the user: a
-        // stand-in for that entry (search::Search::needed).
-        let mut partial = partial;
+        // stand-in for that entry (found::Search::needed).
         for x in &search.standing_in {
             partial.push(PartialStandIn {
                 name: x.effect.name(),

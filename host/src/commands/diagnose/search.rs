@@ -9,7 +9,8 @@
 
 use super::data::{Data, Scored};
 use super::effect_fit::{fit_effect, with_effect, Peaks};
-use super::regimes::{self, WhereReport};
+use super::found::{Search, StandingIn};
+use super::regimes;
 use super::spectrum::without_ripple;
 use super::verdict::{significant, Holdout};
 use crate::fit::{fit_spec, refit_from, FitOptions};
@@ -20,103 +21,6 @@ use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::ModelParams;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
-
-/// What the search found.
-pub struct Search {
-    /// The model without effects.
-    pub baseline: Scored,
-    /// The held-out records' scales.
-    pub holdout: Holdout,
-    /// The records' scales.
-    pub scales: Scales,
-    /// Where the baseline misfits.
-    pub where_: WhereReport,
-    /// Every effect of the catalogue added to the baseline, best held-out (joint) misfit
-    /// first.
-    pub scored: Vec<(Effect, Scored)>,
-    /// The effects named, in the order they were added, each with the fit of the model up to
-    /// it (the last: the final model). An effect that extends another stands for both.
-    pub chain: Vec<(Effect, Scored)>,
-    /// The fits of entries left out (`--without`) that a scored effect extends, the
-    /// baseline plus each: the reference its own part is judged against ([`Search::needed`]).
-    pub left_out_parents: Vec<(Effect, Scored)>,
-    /// Effects significant against the baseline that are not named because they only
-    /// match the entry they extend, which was left out: stand-ins for it, in the order
-    /// found.
-    pub standing_in: Vec<StandingIn>,
-}
-
-/// An extension the search passed over: it only matches the entry it extends, which was
-/// left out ([`Search::needed`]).
-#[derive(Clone, Debug)]
-pub struct StandingIn {
-    /// The effect.
-    pub effect: Effect,
-    /// The entry it extends, left out.
-    pub parent: Effect,
-    /// Held-out speed RMSE of the baseline, and with the effect [rad/s].
-    pub before: f32,
-    /// See `before`.
-    pub after: f32,
-}
-
-impl Search {
-    /// The first effect named, with the fit of the baseline plus it.
-    pub fn chosen(&self) -> Option<&(Effect, Scored)> {
-        self.chain.first()
-    }
-
-    /// The first effect named.
-    pub fn first(&self) -> Option<Effect> {
-        self.chosen().map(|(e, _)| *e)
-    }
-
-    /// The effect the data needs of `effect` and the one it extends: the parent, unless
-    /// `effect`'s fit passes the significance rule against the parent's own fit (a nested
-    /// effect that only matches its parent is not named). `None` when the parent was left
-    /// out (`--without`) and `effect` only matches it: what `effect` explains is the
-    /// parent's part, which may not be named, so neither is.
-    pub fn needed(&self, effect: Effect) -> Option<Effect> {
-        let Some(parent) = effect.parent() else {
-            return Some(effect);
-        };
-        let fit = |e: Effect| self.scored.iter().find(|(x, _)| *x == e).map(|(_, s)| s);
-        let own_part_shows = |parent_fit: &Scored| {
-            fit(effect).is_none_or(|child| {
-                let candidate = child.candidate(effect, &self.scales);
-                significant(&parent_fit.reference(), &candidate, &self.holdout)
-            })
-        };
-        let left_out = self.left_out_parents.iter().find(|(e, _)| *e == parent);
-        match (fit(parent), left_out) {
-            (Some(parent_fit), _) if self.significant(parent, parent_fit) => {
-                Some(if own_part_shows(parent_fit) {
-                    effect
-                } else {
-                    parent
-                })
-            }
-            (None, Some((_, parent_fit))) => own_part_shows(parent_fit).then_some(effect),
-            _ => Some(effect),
-        }
-    }
-
-    /// The final model: the last effect named, or the baseline.
-    pub fn last(&self) -> &Scored {
-        self.chain.last().map_or(&self.baseline, |(_, s)| s)
-    }
-
-    /// Every effect named, in order, with the fit of the model up to it.
-    pub fn named(&self) -> impl Iterator<Item = (Effect, &Scored)> {
-        self.chain.iter().map(|(e, s)| (*e, s))
-    }
-
-    /// Whether `effect`'s fit passes the significance rule against the baseline.
-    pub fn significant(&self, effect: Effect, s: &Scored) -> bool {
-        let candidate = s.candidate(effect, &self.scales);
-        significant(&self.baseline.reference(), &candidate, &self.holdout)
-    }
-}
 
 /// What every fit of the search shares: the records, the quiet fit options, the user's
 /// problem, the baseline's parameters and scales, and the order peaks of a ripple and of
@@ -178,15 +82,6 @@ impl Context<'_> {
         self.data
             .score(refit_from(&self.data.train, &self.quiet, &spec, start)?)
     }
-}
-
-/// The fit of `effect` among `scored`.
-fn fit_of(scored: &[(Effect, Scored)], effect: Effect) -> &Scored {
-    scored
-        .iter()
-        .find(|(e, _)| *e == effect)
-        .map(|(_, s)| s)
-        .expect("every usable effect was scored")
 }
 
 /// Whether the model of `set` holds `effect`'s parameters: `effect` is in it, or an effect
@@ -280,19 +175,11 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     scored.sort_by(|a, b| a.1.holdout_joint.total_cmp(&b.1.holdout_joint));
     // The entries left out that a usable effect extends: fitted as the reference its own
     // part is judged against, never named.
-    let parents: Vec<Effect> = usable
-        .iter()
-        .filter_map(|e| e.parent())
-        .filter(|p| without.contains(p))
-        .fold(Vec::new(), |mut v, p| {
-            if !v.contains(&p) {
-                v.push(p);
-            }
-            v
-        });
-    let mut left_out_parents = Vec::new();
-    for p in parents {
-        left_out_parents.push((p, cx.add(&spec, p, &base_params)?));
+    let mut left_out_parents: Vec<(Effect, Scored)> = Vec::new();
+    for p in usable.iter().filter_map(|e| e.parent()) {
+        if without.contains(&p) && left_out_parents.iter().all(|(q, _)| *q != p) {
+            left_out_parents.push((p, cx.add(&spec, p, &base_params)?));
+        }
     }
     let mut found = Search {
         baseline,
@@ -326,7 +213,10 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     let Some(first) = first else {
         return Ok(found);
     };
-    let first_fit = fit_of(&found.scored, first).clone();
+    let first_fit = found
+        .fit(first)
+        .expect("every usable effect was scored")
+        .clone();
 
     // Forward: more effects, one at a time, on what is left after the ones named so far.
     let mut chain: Vec<(Effect, Scored)> = vec![(first, first_fit)];
