@@ -210,6 +210,7 @@ fn a_commissioning_says_why_a_parameter_is_not_pinned() {
         tau_e: 0.017,
         kv: 0.16,
         tau_m: 6.8,
+        back_emf_current: 3.0,
         volts: 20.0,
         fast_dt: 0.0005,
         fast_samples: 400,

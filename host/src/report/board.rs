@@ -134,13 +134,14 @@ pub fn plan_text(p: &Plan) -> String {
         _ => "no break-away before the calibration current".into(),
     };
     format!(
-        "probe ({:.1} s): current offset {:.4} A, {breakaway}, Ra ~ {:.4} ohm, La/Ra ~ {:.3e} s, Kv ~ {:.4} V s/rad, mechanical time ~ {:.3} s\n\
+        "probe ({:.1} s): current offset {:.4} A, {breakaway}, Ra ~ {:.4} ohm, La/Ra ~ {:.3e} s, Kv ~ {:.4} V s/rad (the back-EMF taking {:.3e} A), mechanical time ~ {:.3} s\n\
          experiment: {:.2} V; slow record {} samples of {:.3e} s, fast record {} samples of {:.3e} s; {:.1} s in all",
         p.probe_seconds,
         p.current_offset,
         p.ra,
         p.tau_e,
         p.kv,
+        p.back_emf_current,
         p.tau_m,
         p.volts,
         p.slow_samples,

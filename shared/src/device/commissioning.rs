@@ -90,6 +90,7 @@ fn plan(d: &Design, dt: f32, p: &Probed) -> Plan {
         tau_e: p.electrical.tau_e,
         kv: p.mechanical.kv,
         tau_m: p.mechanical.tau_m,
+        back_emf_current: p.mechanical.back_emf_current,
         volts: d.volts,
         fast_dt: d.fast.dt(dt),
         fast_samples: d.fast.samples as u16,

@@ -168,6 +168,7 @@ mod tests {
                 tau_m,
                 overshoot: 1.0,
                 current: 0.0,
+                back_emf_current: 1.0,
                 settled: true,
             },
             seconds: 3.0,

@@ -338,6 +338,12 @@ pub struct Mechanical {
     pub overshoot: f32,
     /// Current at the step's end [A] (with the speed settled: the friction's, Kv i = B ω + tc).
     pub current: f32,
+    /// The current the back-EMF takes away at the step's end [A]: (V - Ra i) / Ra = Kv ω / Ra
+    /// (paper Eq. 1 in the steady state), the stall current less the current read. Where it
+    /// is within a few counts of the current reading, the records fix Kv only through it,
+    /// and J, B and friction, known relative to Kv from the speed, with it
+    /// ([`crate::device::unpinned::Unpinned::BackEmfBelowResolution`]).
+    pub back_emf_current: f32,
     /// The speed settled.
     pub settled: bool,
 }
@@ -421,6 +427,7 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
             tau_m: tau_m.max(bench.dt()),
             overshoot: (top / w_end).max(1.0),
             current: i_end,
+            back_emf_current: ((v - ra * i_end) / ra).max(0.0),
             settled,
         });
     }

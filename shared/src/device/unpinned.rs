@@ -1,7 +1,8 @@
 //! Why a commissioning left a parameter not pinned, from what the probe measured and the
 //! experiment planned ([`Plan`]) and the current reading's resolution: the time scale the
-//! experiment could not cover, a signal below one count of the ADC, or, when neither holds,
-//! records that do not separate it from the others. The board's report says which
+//! experiment could not cover, a signal below one count of the ADC (the parameter's own,
+//! or the back-EMF's, through which alone the records fix the scale of J, B, Kv and
+//! friction), or, when none holds, records that do not separate it from the others. The board's report says which
 //! parameters are not pinned (a NaN σ); this names the likely reason, so that a user knows
 //! what to change (the budget, the limits, the drive's ADC) instead of guessing.
 
@@ -13,6 +14,14 @@ use crate::wire::protocol::{MotorReport, Plan};
 pub const MECHANICAL_SPAN: f32 = 3.0;
 /// Record steps per electrical time constant below which La/Ra is not sampled.
 pub const ELECTRICAL_STEPS: f32 = 2.0;
+/// Counts of the current reading, as the probe reads the back-EMF's current, under which a
+/// scale of J, B, Kv and friction left unfixed is put down to it. The probe reads it high:
+/// its mechanical step ends before the current has settled to within a count. In the
+/// commissioning benchmark's box (12-bit readings), every motor that came back with all
+/// four not pinned had a back-EMF of 0.3-5.4 counts, which the probe read as 1-15; of the
+/// motors whose back-EMF took under 1, 1-2, 2-4 and 4-8 counts, 87 %, 38 %, 15 % and 2 %
+/// came back so (`docs/measurements/commissioning.md`).
+pub const BACK_EMF_COUNTS: f32 = 16.0;
 
 /// Why a parameter is not pinned.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,6 +52,17 @@ pub enum Unpinned {
         /// One count of the current reading [A].
         count: f32,
     },
+    /// J, B, Kv and Coulomb friction are all not pinned, and the current the back-EMF
+    /// takes away at the probe's speed (`current` A, Kv ω / Ra, as the probe read it: at
+    /// most that) is under [`BACK_EMF_COUNTS`] counts of the current reading (`count` A). The speed gives J, B
+    /// and friction relative to Kv (paper Eq. 4 divided by Kv); Kv itself shows only in
+    /// the back-EMF term of the current (paper Eq. 1), so all four scale together.
+    BackEmfBelowResolution {
+        /// Current the back-EMF took away at the probe's speed [A].
+        current: f32,
+        /// One count of the current reading [A].
+        count: f32,
+    },
     /// None of the above: the records do not separate it from the other parameters.
     NotSeparated,
 }
@@ -66,6 +86,15 @@ pub fn why_not_pinned(
         return Unpinned::FasterThanSampling {
             tau_e: plan.tau_e,
             step: plan.fast_dt,
+        };
+    }
+    let scale_unpinned = [ParamId::J, ParamId::B, ParamId::Kv, ParamId::Tc]
+        .iter()
+        .all(|p| report.get(p.index() as u8).is_none_or(|e| !e.pinned()));
+    if mechanical && scale_unpinned && plan.back_emf_current < BACK_EMF_COUNTS * current_count {
+        return Unpinned::BackEmfBelowResolution {
+            current: plan.back_emf_current,
+            count: current_count,
         };
     }
     let kv = value(ParamId::Kv);
@@ -99,6 +128,11 @@ impl core::fmt::Display for Unpinned {
                 f,
                 "its current ({signal:.3e} A) is below one count of the current reading ({count:.3e} A)"
             ),
+            Unpinned::BackEmfBelowResolution { current, count } => write!(
+                f,
+                "the back-EMF took at most about {current:.3e} A of the current at the probe's speed ({:.1} counts of the reading): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it; raise the current or voltage limit, or read the current finer",
+                current / count
+            ),
             Unpinned::NotSeparated => {
                 f.write_str("the records do not separate it from the other parameters")
             }
@@ -119,6 +153,7 @@ mod tests {
             tau_e: 1e-3,
             kv: 0.5,
             tau_m: 1.0,
+            back_emf_current: 10.0,
             volts: 20.0,
             fast_dt: 5e-5,
             fast_samples: 400,
@@ -172,6 +207,47 @@ mod tests {
         assert!(matches!(why, Unpinned::BelowResolution { .. }), "{why:?}");
         let why = why_not_pinned(ParamId::B, &report(1e-2, 0.1), &plan(), 0.0234);
         assert_eq!(why, Unpinned::NotSeparated);
+    }
+
+    #[test]
+    fn a_back_emf_within_a_few_counts_is_the_reason_when_the_scale_of_j_b_kv_and_tc_is_free() {
+        let mut p = plan();
+        p.back_emf_current = 0.05; // About two counts of 23.4 mA.
+        let mut r = report(1e-2, 0.1);
+        let j = Estimate {
+            param: ParamId::J.index() as u8,
+            value: 1e-3,
+            std: f32::NAN,
+        };
+        r.estimates.push(j).unwrap();
+        for id in [ParamId::J, ParamId::B, ParamId::Kv, ParamId::Tc] {
+            let why = why_not_pinned(id, &r, &p, 0.0234);
+            assert_eq!(
+                why,
+                Unpinned::BackEmfBelowResolution {
+                    current: 0.05,
+                    count: 0.0234
+                },
+                "{id:?}"
+            );
+        }
+        // Not a reason for the electrical parameters, nor with Kv pinned, nor with a
+        // back-EMF of many counts.
+        assert_eq!(
+            why_not_pinned(ParamId::Ra, &r, &p, 0.0234),
+            Unpinned::NotSeparated
+        );
+        let mut kv_pinned = r.clone();
+        kv_pinned.estimates[0].std = 1e-3;
+        assert_eq!(
+            why_not_pinned(ParamId::B, &kv_pinned, &p, 0.0234),
+            Unpinned::NotSeparated
+        );
+        p.back_emf_current = 0.5;
+        assert_eq!(
+            why_not_pinned(ParamId::B, &r, &p, 0.0234),
+            Unpinned::NotSeparated
+        );
     }
 
     #[test]

@@ -190,6 +190,7 @@ fn plan() -> impl Strategy<Value = Plan> {
             float(),
             float(),
             float(),
+            float(),
         ],
         (
             float(),
@@ -207,7 +208,8 @@ fn plan() -> impl Strategy<Value = Plan> {
             tau_e: a[3],
             kv: a[4],
             tau_m: a[5],
-            volts: a[6],
+            back_emf_current: a[6],
+            volts: a[7],
             fast_dt: b.0,
             fast_samples: b.1,
             slow_dt: b.2,

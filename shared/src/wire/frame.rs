@@ -251,7 +251,7 @@ mod tests {
     }
 
     #[test]
-    fn the_messages_of_protocols_9_and_10_have_the_bytes_docs_contracts_gives() {
+    fn the_messages_of_protocols_9_to_11_have_the_bytes_docs_contracts_gives() {
         // Postcard: the variant's index as a varint, then each field (f32 little-endian,
         // integers as varints, an option as a 0/1 tag before its value).
         let mut out = [0u8; 64];
@@ -291,6 +291,35 @@ mod tests {
             .unwrap()
             .to_vec();
         assert_eq!(refused, [1, 14]);
+        // Protocol 11: the plan's `back_emf_current` after `tau_m`; the hello carries 11.
+        let plan = Plan {
+            current_offset: 0.0,
+            breakaway_volts: 0.0,
+            ra: 0.0,
+            tau_e: 0.0,
+            kv: 0.0,
+            tau_m: 0.0,
+            back_emf_current: 2.0,
+            volts: 0.0,
+            fast_dt: 0.0,
+            fast_samples: 1,
+            slow_dt: 0.0,
+            slow_samples: 2,
+            probe_seconds: 0.0,
+            planned_seconds: 0.0,
+        };
+        let planned = postcard::to_slice(&BoardMessage::Planned(plan), &mut out)
+            .unwrap()
+            .to_vec();
+        let mut want = vec![8];
+        want.extend([0u8; 24]);
+        want.extend([0x00, 0x00, 0x00, 0x40]);
+        want.extend([0u8; 8]);
+        want.push(1);
+        want.extend([0u8; 4]);
+        want.push(2);
+        want.extend([0u8; 8]);
+        assert_eq!(planned, want);
         assert_eq!(
             bytes(
                 &HostMessage::Hello {
@@ -298,7 +327,7 @@ mod tests {
                 },
                 &mut out
             ),
-            [0, 10]
+            [0, 11]
         );
     }
 

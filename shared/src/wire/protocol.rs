@@ -7,7 +7,7 @@ use crate::wire::limits::Limits;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 10;
+pub const PROTOCOL_VERSION: u16 = 11;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -136,6 +136,9 @@ pub struct Plan {
     pub kv: f32,
     /// Mechanical time scale from the mechanical step [s].
     pub tau_m: f32,
+    /// Current the back-EMF took away at the mechanical step's end, (V - Ra i) / Ra [A]
+    /// (protocol 11).
+    pub back_emf_current: f32,
     /// Largest voltage of the experiment's records [V].
     pub volts: f32,
     /// Step of the fast record (electrical mode) [s].
