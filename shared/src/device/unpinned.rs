@@ -56,7 +56,9 @@ pub enum Unpinned {
     /// takes away at the probe's speed (`current` A, Kv ω / Ra, as the probe read it: at
     /// most that) is under [`BACK_EMF_COUNTS`] counts of the current reading (`count` A). The speed gives J, B
     /// and friction relative to Kv (paper Eq. 4 divided by Kv); Kv itself shows only in
-    /// the back-EMF term of the current (paper Eq. 1), so all four scale together.
+    /// the back-EMF term of the current (paper Eq. 1), so all four scale together; Ra and
+    /// La, which share Eq. 1 with the back-EMF, lean on that scale too and are unpinned with
+    /// it (their estimates may still lie close).
     BackEmfBelowResolution {
         /// Current the back-EMF took away at the probe's speed [A].
         current: f32,
@@ -91,7 +93,7 @@ pub fn why_not_pinned(
     let scale_unpinned = [ParamId::J, ParamId::B, ParamId::Kv, ParamId::Tc]
         .iter()
         .all(|p| report.get(p.index() as u8).is_none_or(|e| !e.pinned()));
-    if mechanical && scale_unpinned && plan.back_emf_current < BACK_EMF_COUNTS * current_count {
+    if scale_unpinned && plan.back_emf_current < BACK_EMF_COUNTS * current_count {
         return Unpinned::BackEmfBelowResolution {
             current: plan.back_emf_current,
             count: current_count,
@@ -130,7 +132,7 @@ impl core::fmt::Display for Unpinned {
             ),
             Unpinned::BackEmfBelowResolution { current, count } => write!(
                 f,
-                "the back-EMF took at most about {current:.3e} A of the current at the probe's speed ({:.1} counts of the reading): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it; raise the current or voltage limit, or read the current finer",
+                "the back-EMF took at most about {current:.3e} A of the current at the probe's speed ({:.1} counts of the reading): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it (Ra and La lean on that scale); raise the current or voltage limit, or read the current finer",
                 current / count
             ),
             Unpinned::NotSeparated => {
@@ -231,12 +233,12 @@ mod tests {
                 "{id:?}"
             );
         }
-        // Not a reason for the electrical parameters, nor with Kv pinned, nor with a
-        // back-EMF of many counts.
-        assert_eq!(
+        // The electrical parameters unpinned beside them lean on the same scale.
+        assert!(matches!(
             why_not_pinned(ParamId::Ra, &r, &p, 0.0234),
-            Unpinned::NotSeparated
-        );
+            Unpinned::BackEmfBelowResolution { .. }
+        ));
+        // Not with Kv pinned, nor with a back-EMF of many counts.
         let mut kv_pinned = r.clone();
         kv_pinned.estimates[0].std = 1e-3;
         assert_eq!(
