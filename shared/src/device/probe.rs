@@ -404,7 +404,9 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
             return Err(JobEnd::Refused(Refusal::NoMotion));
         }
         let (w_end, i_end) = (speed.last(), current.last());
-        let kv = ((v - ra * i_end) / w_end).max(KV_FLOOR);
+        // Paper Eq. 1 in the steady state: the back-EMF is what the resistance leaves.
+        let back_emf = v - ra * i_end;
+        let kv = (back_emf / w_end).max(KV_FLOOR);
         let t = k as f32 * bench.dt();
         let w0 = start.unwrap_or(0.0);
         let tau_m = match settled {
@@ -427,7 +429,7 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
             tau_m: tau_m.max(bench.dt()),
             overshoot: (top / w_end).max(1.0),
             current: i_end,
-            back_emf_current: ((v - ra * i_end) / ra).max(0.0),
+            back_emf_current: (back_emf / ra).max(0.0),
             settled,
         });
     }

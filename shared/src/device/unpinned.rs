@@ -15,12 +15,14 @@ pub const MECHANICAL_SPAN: f32 = 3.0;
 /// Record steps per electrical time constant below which La/Ra is not sampled.
 pub const ELECTRICAL_STEPS: f32 = 2.0;
 /// Counts of the current reading, as the probe reads the back-EMF's current, under which a
-/// scale of J, B, Kv and friction left unfixed is put down to it. The probe reads it high:
-/// its mechanical step ends before the current has settled to within a count. In the
-/// commissioning benchmark's box (12-bit readings), every motor that came back with all
-/// four not pinned had a back-EMF of 0.3-5.4 counts, which the probe read as 1-15; of the
-/// motors whose back-EMF took under 1, 1-2, 2-4 and 4-8 counts, 87 %, 38 %, 15 % and 2 %
-/// came back so (`docs/measurements/commissioning.md`).
+/// scale of J, B, Kv and friction left unfixed is put down to it. The probe's reading is a
+/// small difference of two currents of tens of amperes, V / Ra - i, and on the motors
+/// concerned it read high: in the commissioning benchmark's box (12-bit readings), motors
+/// that came back with all four not pinned had a back-EMF of 0.3-5.4 counts, which the
+/// probe read as 1-15 (why it reads high is not settled: the electrical step's Ra, if
+/// anything, reads high there, which would lower it). Of the motors whose back-EMF took
+/// under 1, 1-2, 2-4 and 4-8 counts, 87 %, 38 %, 15 % and 2 % came back so
+/// (`docs/measurements/commissioning.md`).
 pub const BACK_EMF_COUNTS: f32 = 16.0;
 
 /// Why a parameter is not pinned.
@@ -52,9 +54,10 @@ pub enum Unpinned {
         /// One count of the current reading [A].
         count: f32,
     },
-    /// J, B, Kv and Coulomb friction are all not pinned, and the current the back-EMF
-    /// takes away at the probe's speed (`current` A, Kv ω / Ra, as the probe read it: at
-    /// most that) is under [`BACK_EMF_COUNTS`] counts of the current reading (`count` A). The speed gives J, B
+    /// J, B, Kv and Coulomb friction (when fitted) are all not pinned, and the current the
+    /// back-EMF takes away at the probe's speed (`current` A, Kv ω / Ra, as the probe read
+    /// it: a rough figure) is under [`BACK_EMF_COUNTS`] counts of the current reading
+    /// (`count` A). The speed gives J, B
     /// and friction relative to Kv (paper Eq. 4 divided by Kv); Kv itself shows only in
     /// the back-EMF term of the current (paper Eq. 1), so all four scale together; Ra and
     /// La, which share Eq. 1 with the back-EMF, lean on that scale too and are unpinned with
@@ -81,23 +84,30 @@ pub fn why_not_pinned(
     let mechanical = matches!(param, ParamId::J | ParamId::B | ParamId::Kv | ParamId::Tc);
     let covered = plan.slow_dt * plan.slow_samples as f32;
     let needed = MECHANICAL_SPAN * plan.tau_m;
-    if mechanical && covered < needed {
-        return Unpinned::TimeScale { covered, needed };
-    }
     if param == ParamId::La && plan.tau_e < ELECTRICAL_STEPS * plan.fast_dt {
         return Unpinned::FasterThanSampling {
             tau_e: plan.tau_e,
             step: plan.fast_dt,
         };
     }
-    let scale_unpinned = [ParamId::J, ParamId::B, ParamId::Kv, ParamId::Tc]
+    // J, B and Kv held and unpinned, and Coulomb friction too when it is fitted (a friction
+    // held at a known value would fix the scale: the speed gives tc / Kv). Checked first:
+    // with the back-EMF within a few counts the probe's Kv, and with it its mechanical
+    // time scale (J Ra / Kv²), is unreliable, so a slow record short of it says nothing.
+    let unpinned = |p: ParamId| report.get(p.index() as u8).map(|e| !e.pinned());
+    let scale_unpinned = [ParamId::J, ParamId::B, ParamId::Kv]
         .iter()
-        .all(|p| report.get(p.index() as u8).is_none_or(|e| !e.pinned()));
-    if scale_unpinned && plan.back_emf_current < BACK_EMF_COUNTS * current_count {
+        .all(|p| unpinned(*p) == Some(true))
+        && unpinned(ParamId::Tc) != Some(false);
+    let motor = mechanical || matches!(param, ParamId::Ra | ParamId::La);
+    if motor && scale_unpinned && plan.back_emf_current < BACK_EMF_COUNTS * current_count {
         return Unpinned::BackEmfBelowResolution {
             current: plan.back_emf_current,
             count: current_count,
         };
+    }
+    if mechanical && covered < needed {
+        return Unpinned::TimeScale { covered, needed };
     }
     let kv = value(ParamId::Kv);
     let signal = match param {
@@ -130,11 +140,12 @@ impl core::fmt::Display for Unpinned {
                 f,
                 "its current ({signal:.3e} A) is below one count of the current reading ({count:.3e} A)"
             ),
-            Unpinned::BackEmfBelowResolution { current, count } => write!(
-                f,
-                "the back-EMF took at most about {current:.3e} A of the current at the probe's speed ({:.1} counts of the reading): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it (Ra and La lean on that scale); raise the current or voltage limit, or read the current finer",
-                current / count
-            ),
+            Unpinned::BackEmfBelowResolution { current, count } => {
+                write!(
+                    f,
+                    "the back-EMF takes only a few counts of the current reading at the probe's speed (the probe read {current:.2e} A against a count of {count:.2e} A, a rough figure): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it (Ra and La lean on that scale); raise the current or voltage limit, or read the current finer"
+                )
+            }
             Unpinned::NotSeparated => {
                 f.write_str("the records do not separate it from the other parameters")
             }
@@ -233,12 +244,40 @@ mod tests {
                 "{id:?}"
             );
         }
-        // The electrical parameters unpinned beside them lean on the same scale.
+        // The electrical parameters unpinned beside them lean on the same scale, where the
+        // slow record covered the mechanical mode (else the time scale is the reason).
+        let ra = Estimate {
+            param: ParamId::Ra.index() as u8,
+            value: 1.0,
+            std: f32::NAN,
+        };
+        r.estimates.push(ra).unwrap();
         assert!(matches!(
             why_not_pinned(ParamId::Ra, &r, &p, 0.0234),
             Unpinned::BackEmfBelowResolution { .. }
         ));
-        // Not with Kv pinned, nor with a back-EMF of many counts.
+        // Before the time scale: the probe's, from its Kv, is unreliable then.
+        let mut short = p;
+        short.tau_m = 3.0;
+        assert!(matches!(
+            why_not_pinned(ParamId::J, &r, &short, 0.0234),
+            Unpinned::BackEmfBelowResolution { .. }
+        ));
+        // Not with J not in the report, nor with tc pinned (it fixes the scale: the speed
+        // gives tc / Kv), nor with Kv pinned, nor with a back-EMF of many counts.
+        let mut no_j = r.clone();
+        no_j.estimates
+            .retain(|e| e.param != ParamId::J.index() as u8);
+        assert_eq!(
+            why_not_pinned(ParamId::B, &no_j, &p, 0.0234),
+            Unpinned::NotSeparated
+        );
+        let mut tc_pinned = r.clone();
+        tc_pinned.estimates[2].std = 1e-3;
+        assert_eq!(
+            why_not_pinned(ParamId::B, &tc_pinned, &p, 0.0234),
+            Unpinned::NotSeparated
+        );
         let mut kv_pinned = r.clone();
         kv_pinned.estimates[0].std = 1e-3;
         assert_eq!(

@@ -94,7 +94,8 @@ pub fn identify_from(
     let mut result = conclude(&objective, &space, searched, cfg.adc_readings);
     // The profile check works on the result in place (never a second copy of it), beside
     // the analysis's frame rather than on it. It is entered only when it has work (a flat
-    // direction beside a pinned parameter), and reports its iterations as the fit does
+    // direction beside a pinned parameter, or a pinned parameter whose local deviation
+    // exceeds `profile_check::CURVED_STD`), and reports its iterations as the fit does
     // (a board feeds its watchdog there). Stopped, or not started because the caller
     // stopped the fit, it leaves nothing pinned.
     if let (Some(lm), true, Ok(r)) = (&cfg.refine, cfg.profile_check, &mut result) {

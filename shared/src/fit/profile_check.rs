@@ -236,6 +236,9 @@ pub fn unchecked(id: &mut Identifiability, space: &Space) {
 /// `lm` for the check's refits: they stop once an accepted step lowers the cost by less
 /// than `chi2` residual variances (`sigma2`) from about `cost`, not at the fit's own
 /// tolerance (the check compares rises of the cost with 9 and 1, not its last digits).
+/// The tolerance is relative (least squares compares a step's gain with the cost it starts
+/// from): `chi2` units at the fit's optimum, proportionally more at a start higher up the
+/// valley's wall, so that a refit from far up may stop with a few units still to gain.
 fn stopping_at(lm: &LmConfig, chi2: f64, sigma2: f64, cost: &Cost) -> LmConfig {
     LmConfig {
         rel_tol: lm
