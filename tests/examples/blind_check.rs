@@ -194,7 +194,8 @@ fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
 }
 
 /// Where the verdict's remainder lies, in a few words: the drift of a parameter along a
-/// record, or the regime that holds most of the misfit.
+/// record, the regime that holds most of the speed's misfit, and (`current:`) the one that
+/// holds most of the current's.
 fn where_of(verdict: &serde_json::Value) -> String {
     let r = &verdict["remainder"];
     if r.is_null() {
@@ -204,15 +205,22 @@ fn where_of(verdict: &serde_json::Value) -> String {
     if let Some(d) = r["drift"][0]["param"].as_str() {
         parts.push(format!("drift of {d}"));
     }
-    let regimes = r["regimes"].as_array().cloned().unwrap_or_default();
-    if let Some(top) = regimes.iter().max_by(|a, b| {
-        let lift = |x: &serde_json::Value| {
-            x["share_of_misfit"].as_f64().unwrap_or(0.0)
-                / x["share_of_samples"].as_f64().unwrap_or(1.0).max(1e-9)
-        };
-        lift(a).total_cmp(&lift(b))
-    }) {
-        parts.push(top["short"].as_str().unwrap_or("?").to_string());
+    if let Some(top) = most_over_represented(&r["regimes"]) {
+        parts.push(top);
+    }
+    if let Some(top) = most_over_represented(&r["current_regimes"]) {
+        parts.push(format!("current: {top}"));
     }
     parts.join(", ")
+}
+
+/// The short name of the regime with the largest share of misfit over share of samples.
+fn most_over_represented(regimes: &serde_json::Value) -> Option<String> {
+    let regimes = regimes.as_array()?;
+    let lift = |x: &serde_json::Value| {
+        x["share_of_misfit"].as_f64().unwrap_or(0.0)
+            / x["share_of_samples"].as_f64().unwrap_or(1.0).max(1e-9)
+    };
+    let top = regimes.iter().max_by(|a, b| lift(a).total_cmp(&lift(b)))?;
+    Some(top["short"].as_str().unwrap_or("?").to_string())
 }

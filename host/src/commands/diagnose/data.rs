@@ -29,6 +29,8 @@ pub struct Trace {
     pub omega: Vec<f32>,
     /// Armature current [A] (measured, else simulated).
     pub current: Vec<f32>,
+    /// measured - modelled current [A], when the current is measured and fitted.
+    pub current_residual: Option<Vec<f32>>,
 }
 
 /// Largest magnitude of `x` (0 when empty).
@@ -200,6 +202,10 @@ impl Data {
                 let mut i = vec![0.0; r.len()];
                 obj.simulate(p, k, &mut w, &mut i)
                     .map_err(|e| anyhow!("{e}"))?;
+                let current_residual = match (&r.current, self.with_current) {
+                    (Some(m), true) => Some(m.iter().zip(&i).map(|(m, s)| m - s).collect()),
+                    _ => None,
+                };
                 let current = r.current.clone().unwrap_or(i);
                 out.push(Trace {
                     name: r.name(),
@@ -208,6 +214,7 @@ impl Data {
                     residual: r.omega.iter().zip(&w).map(|(m, s)| m - s).collect(),
                     omega: w,
                     current,
+                    current_residual,
                 });
             }
         }

@@ -48,14 +48,10 @@ pub struct StandingIn {
 }
 
 impl Search {
-    /// The first effect named, with the fit of the baseline plus it.
+    /// The first effect of the search's chain (named unless the report finds it a partial
+    /// stand-in), with the fit of the baseline plus it.
     pub fn chosen(&self) -> Option<&(Effect, Scored)> {
         self.chain.first()
-    }
-
-    /// The first effect named.
-    pub fn first(&self) -> Option<Effect> {
-        self.chosen().map(|(e, _)| *e)
     }
 
     /// The effect the data needs of `effect` and the one it extends: the parent, unless

@@ -97,6 +97,9 @@ pub struct PartialStandIn {
     pub channel: &'static str,
     /// Why it is not named.
     pub why: String,
+    /// It is in the final model (a step of the search's chain), not an entry passed over.
+    #[serde(skip)]
+    pub in_model: bool,
 }
 
 /// Why the named effects are not causes on these `channels`, and the channel that leaves
@@ -147,6 +150,7 @@ pub fn stand_ins(
                 share_of_excess: Num(share),
                 channel: channel.name,
                 why: why.to_string(),
+                in_model: true,
             }
         })
         .collect()

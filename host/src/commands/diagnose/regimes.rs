@@ -24,11 +24,18 @@ struct Sample {
     current_max: f32,
 }
 
-const REGIMES: [Regime; 11] = [
+const REGIMES: [Regime; 12] = [
     Regime {
         name: "transients (start-up and speed changes)",
         short: "transient",
         member: |s| s.accel.abs() > 0.1 * s.accel_max,
+    },
+    Regime {
+        name: "start-up (gaining speed below 30 % of max)",
+        short: "start-up",
+        member: |s| {
+            s.omega.abs() < 0.3 * s.omega_max && s.accel * s.omega.signum() > 0.1 * s.accel_max
+        },
     },
     Regime {
         name: "steady state",
@@ -187,63 +194,69 @@ pub struct Spectrum {
     pub points_to: &'static str,
 }
 
-/// Where the baseline misfits `traces`, with `noise` the measured speed noise.
-#[allow(clippy::needless_range_loop)] // one index over five parallel per-sample series
-pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
-    let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
-    let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
-    let accels: Vec<Vec<f32>> = traces.iter().map(|t| derivative(&t.omega, t.dt)).collect();
-    let accel_max = accels.iter().map(|a| peak(a)).fold(0.0, f32::max);
+/// The regime of every sample of `traces`, with the maxima over them (the classes'
+/// thresholds are shares of these).
+struct Samples {
+    per_trace: Vec<Vec<Sample>>,
+}
+
+impl Samples {
+    fn of(traces: &[Trace]) -> Samples {
+        let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
+        let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
+        let accels: Vec<Vec<f32>> = traces.iter().map(|t| derivative(&t.omega, t.dt)).collect();
+        let accel_max = accels.iter().map(|a| peak(a)).fold(0.0, f32::max);
+        let per_trace = traces
+            .iter()
+            .zip(&accels)
+            .map(|(t, acc)| {
+                (0..t.omega.len())
+                    .map(|k| Sample {
+                        omega: t.omega[k],
+                        accel: acc[k],
+                        current: t.current[k],
+                        omega_max,
+                        accel_max,
+                        current_max,
+                    })
+                    .collect()
+            })
+            .collect();
+        Samples { per_trace }
+    }
+}
+
+/// Each regime's share of the squared `residual` of every trace (the speed's, or the
+/// current's), the most over-represented first, and the three most over-represented (at
+/// least 1.3 times their share of the samples) in words, `what` naming the misfit and
+/// `unit` its unit.
+fn shares<'t>(
+    traces: &'t [Trace],
+    samples: &Samples,
+    residual: impl Fn(&'t Trace) -> Option<&'t [f32]>,
+    what: &str,
+    unit: &str,
+) -> (Vec<RegimeShare>, Vec<String>) {
     let mut total = 0.0f64;
-    let mut samples = 0usize;
+    let mut n = 0usize;
     let mut regime_sse = [0.0f64; REGIMES.len()];
     let mut regime_n = [0usize; REGIMES.len()];
-    // Signatures: what the residual looks like when the model lacks an effect, from the
-    // effect's catalogue entry.
-    let names: Vec<(&'static str, Signature)> = Effect::ALL
-        .iter()
-        .filter_map(|e| e.spec().signature.map(|s| (e.name(), s)))
-        .collect();
-    let mut sig: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
-    let mut res_all = Vec::new();
-    let mut records = Vec::new();
-    for (t, acc) in traces.iter().zip(&accels) {
-        let mut sse = 0.0f64;
-        for k in 0..t.residual.len() {
-            let r = t.residual[k] as f64;
-            let s = Sample {
-                omega: t.omega[k],
-                accel: acc[k],
-                current: t.current[k],
-                omega_max,
-                accel_max,
-                current_max,
-            };
-            sse += r * r;
+    for (t, at) in traces.iter().zip(&samples.per_trace) {
+        let Some(r) = residual(t) else { continue };
+        for (r, s) in r.iter().zip(at) {
+            let r2 = (*r as f64) * (*r as f64);
+            total += r2;
+            n += 1;
             for (i, reg) in REGIMES.iter().enumerate() {
-                if (reg.member)(&s) {
-                    regime_sse[i] += r * r;
+                if (reg.member)(s) {
+                    regime_sse[i] += r2;
                     regime_n[i] += 1;
                 }
             }
-            let at = SignatureSample {
-                omega: s.omega as f64,
-                accel: s.accel as f64,
-                current: s.current as f64,
-                omega_max: omega_max as f64,
-                current_max: current_max as f64,
-            };
-            for (series, (_, signature)) in sig.iter_mut().zip(&names) {
-                series.push((signature.at)(&at));
-            }
-            res_all.push(r);
         }
-        total += sse;
-        samples += t.residual.len();
-        records.push((t.name.clone(), t.set, sse, t.residual.len()));
     }
     let total = total.max(f64::MIN_POSITIVE);
-    let n = samples.max(1) as f64;
+    let n = n.max(1) as f64;
     let mut regimes: Vec<RegimeShare> = Vec::new();
     let mut ranked: Vec<(f64, String)> = Vec::new();
     for (i, reg) in REGIMES.iter().enumerate() {
@@ -263,7 +276,7 @@ pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
         ranked.push((
             share / sample_share,
             format!(
-                "{:.0} % of the misfit lies in {} ({:.0} % of the samples, rmse {:.3} rad/s)",
+                "{:.0} % of {what} lies in {} ({:.0} % of the samples, rmse {:.3} {unit})",
                 100.0 * share,
                 reg.name,
                 100.0 * sample_share,
@@ -276,6 +289,79 @@ pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
         c(b).total_cmp(&c(a))
     });
     ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let lines = ranked
+        .into_iter()
+        .filter(|(ratio, _)| *ratio > 1.3)
+        .take(3)
+        .map(|(_, s)| s)
+        .collect();
+    (regimes, lines)
+}
+
+/// Where the current's misfit lies on `traces` that hold a measured current's residual
+/// ([`Trace::current_residual`]): each regime's share, the most over-represented first, and
+/// the findings in words; `None` when no trace holds one. The current shows where an effect
+/// acts through it (a current limit flattens the current at start-ups and reversals, where
+/// the speed's misfit follows only later, at speed).
+pub fn current_where(traces: &[Trace]) -> Option<(Vec<RegimeShare>, Vec<String>)> {
+    traces
+        .iter()
+        .any(|t| t.current_residual.is_some())
+        .then(|| {
+            shares(
+                traces,
+                &Samples::of(traces),
+                |t| t.current_residual.as_deref(),
+                "the current's misfit",
+                "A",
+            )
+        })
+}
+
+/// Where the baseline misfits `traces`, with `noise` the measured speed noise.
+pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
+    let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
+    let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
+    let samples = Samples::of(traces);
+    let (regimes, lines) = shares(
+        traces,
+        &samples,
+        |t| Some(&t.residual[..]),
+        "the misfit",
+        "rad/s",
+    );
+    // Signatures: what the residual looks like when the model lacks an effect, from the
+    // effect's catalogue entry.
+    let names: Vec<(&'static str, Signature)> = Effect::ALL
+        .iter()
+        .filter_map(|e| e.spec().signature.map(|s| (e.name(), s)))
+        .collect();
+    let mut sig: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    let mut res_all = Vec::new();
+    let mut records = Vec::new();
+    let mut total = 0.0f64;
+    for (t, at) in traces.iter().zip(&samples.per_trace) {
+        let mut sse = 0.0f64;
+        for (r, s) in t.residual.iter().zip(at) {
+            let r = *r as f64;
+            sse += r * r;
+            let at = SignatureSample {
+                omega: s.omega as f64,
+                accel: s.accel as f64,
+                current: s.current as f64,
+                omega_max: omega_max as f64,
+                current_max: current_max as f64,
+            };
+            for (series, (_, signature)) in sig.iter_mut().zip(&names) {
+                series.push((signature.at)(&at));
+            }
+            res_all.push(r);
+        }
+        total += sse;
+        records.push((t.name.clone(), t.set, sse, t.residual.len()));
+    }
+    let n = res_all.len().max(1) as f64;
+    let total = total.max(f64::MIN_POSITIVE);
     let per_record: Vec<RecordShare> = records
         .into_iter()
         .map(|(file, set, sse, len)| RecordShare {
@@ -302,12 +388,7 @@ pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
         .collect();
     signatures.sort_by(|a, b| b.0.total_cmp(&a.0));
     let OrderPeak { order, share, .. } = order_peak(traces);
-    let mut summary: Vec<String> = ranked
-        .iter()
-        .filter(|(ratio, _)| *ratio > 1.3)
-        .take(3)
-        .map(|(_, s)| s.clone())
-        .collect();
+    let mut summary = lines;
     let rmse = (total / n).sqrt();
     if rmse <= 1.05 * noise as f64 {
         summary.insert(0, format!("the baseline fits to the noise ({rmse:.3} vs {noise:.3} rad/s): no misfit to locate"));
@@ -375,6 +456,7 @@ mod tests {
             dt: 0.01,
             residual,
             current: omega.iter().map(|w| w * 0.01).collect(),
+            current_residual: None,
             omega,
         }
     }
@@ -402,5 +484,49 @@ mod tests {
         // Fitted to the noise: said first.
         let quiet = analyse(&[reversal(0.01)], 0.01);
         assert!(quiet.summary[0].starts_with("the baseline fits to the noise"));
+    }
+
+    /// A start from rest to 100 rad/s, a hold, a stop and a rest, the current's residual
+    /// in the first 25 samples (a flat-topped current at the start).
+    fn start_and_stop() -> Trace {
+        let omega: Vec<f32> = (0..500)
+            .map(|k| match k {
+                0..100 => k as f32,
+                100..300 => 100.0,
+                300..400 => (400 - k) as f32,
+                _ => 0.0,
+            })
+            .collect();
+        let current = (0..500)
+            .map(|k| match k {
+                0..100 => 1.0,
+                100..300 => 0.1,
+                _ => 0.0,
+            })
+            .collect();
+        Trace {
+            name: "s.csv".into(),
+            set: "holdout",
+            dt: 0.01,
+            residual: vec![0.0; 500],
+            current,
+            current_residual: Some((0..500).map(|k| if k < 25 { -0.3 } else { 0.0 }).collect()),
+            omega,
+        }
+    }
+
+    #[test]
+    fn the_current_s_misfit_at_a_start_is_found_at_the_start() {
+        let (regimes, lines) = current_where(&[start_and_stop()]).expect("a current residual");
+        assert_eq!(regimes[0].short, "start-up", "{regimes:?}");
+        assert_eq!(regimes[0].share_of_misfit, 1.0);
+        assert!(
+            lines[0].starts_with("100 % of the current's misfit lies in start-up")
+                && lines[0].ends_with(" A)"),
+            "{lines:?}"
+        );
+        let mut speed_only = start_and_stop();
+        speed_only.current_residual = None;
+        assert!(current_where(&[speed_only]).is_none());
     }
 }

@@ -39,6 +39,10 @@ pub struct Remainder {
     /// Regimes of the held-out records where the final model's residual concentrates, the
     /// most over-represented first.
     pub regimes: Vec<RegimeShare>,
+    /// The same for the residual of the measured current (empty without one): an effect
+    /// that acts through the current shows there where it acts (a current limit at
+    /// start-ups and reversals), where the speed's misfit follows later.
+    pub current_regimes: Vec<RegimeShare>,
     /// Each held-out record's share of it.
     pub records: Vec<RecordShare>,
     /// The stretch of one held-out record with the largest share of it.
@@ -109,6 +113,8 @@ pub fn remainder(
             .filter(|line| line.contains("of the misfit lies in"))
             .cloned(),
     );
+    let (current_regimes, current_lines) = regimes::current_where(&traces).unwrap_or_default();
+    summary.extend(current_lines);
     summary.push(format!(
         "its largest share ({:.0} %) lies in {} from {:.3} s to {:.3} s",
         100.0 * span.share_of_misfit.0,
@@ -130,6 +136,7 @@ pub fn remainder(
         floor: floor_kind,
         floor_rmse: Num(floor_rmse),
         regimes: found.regimes,
+        current_regimes,
         records: found.records,
         span,
         drift,
@@ -188,6 +195,7 @@ mod tests {
             residual,
             omega: vec![1.0; n],
             current: vec![0.0; n],
+            current_residual: None,
         }
     }
 

@@ -227,23 +227,6 @@ impl DiagnoseReport {
     ) -> DiagnoseReport {
         let baseline = &search.baseline;
         let holdout_noise = search.holdout.noise;
-        let first = search.first();
-        let effects = search
-            .scored
-            .iter()
-            .map(|(e, s)| EffectFit {
-                name: e.name(),
-                train_rmse: Num(s.train_rmse),
-                holdout_rmse: Num(s.holdout_rmse),
-                holdout_joint: Num(s.holdout_joint),
-                params: values(
-                    &s.fit.result.params,
-                    &[&ParamId::MOTOR[..], e.params()].concat(),
-                ),
-                effect_std: effect_std(s, *e),
-                significant: first == Some(*e) || search.significant(*e, s),
-            })
-            .collect();
         let after = search.last();
         let current = baseline
             .holdout_rmse_current
@@ -299,6 +282,7 @@ impl DiagnoseReport {
                     "no better on the held-out records than {}, which it extends and which was left out: what it explains is that entry's part, not its own",
                     x.parent.name()
                 ),
+                in_model: false,
             });
         }
         // A named effect whose own parameters the final fit does not pin: a stand-in too
@@ -322,6 +306,7 @@ impl DiagnoseReport {
                             "the records do not pin its {}: they do not show its form, only that it shaves the misfit",
                             free.join(", ")
                         ),
+                        in_model: true,
                     });
                 }
                 before = s.holdout_rmse;
@@ -334,6 +319,30 @@ impl DiagnoseReport {
         let chosen = named_chain.next();
         let then = named_chain.next();
         let first = chosen.map(|(e, _)| *e);
+        // The model the verdict's effect was added to: the step before it in the chain (a
+        // stand-in passed over may lie there), or the baseline.
+        let added_to = chosen
+            .and_then(|(e, _)| search.chain.iter().position(|(c, _)| c == e))
+            .and_then(|k| k.checked_sub(1))
+            .map_or(&baseline.fit.result.params, |k| {
+                &search.chain[k].1.fit.result.params
+            });
+        let effects = search
+            .scored
+            .iter()
+            .map(|(e, s)| EffectFit {
+                name: e.name(),
+                train_rmse: Num(s.train_rmse),
+                holdout_rmse: Num(s.holdout_rmse),
+                holdout_joint: Num(s.holdout_joint),
+                params: values(
+                    &s.fit.result.params,
+                    &[&ParamId::MOTOR[..], e.params()].concat(),
+                ),
+                effect_std: effect_std(s, *e),
+                significant: first == Some(*e) || search.significant(*e, s),
+            })
+            .collect();
         let verdict = Verdict {
             effect: first.map(|e| e.name()),
             holdout_rmse_before: Num(baseline.holdout_rmse),
@@ -349,7 +358,7 @@ impl DiagnoseReport {
             chosen: chosen.map(|(e, s)| Chosen {
                 effect_params: values(&s.fit.result.params, e.params()),
                 effect_std: effect_std(s, *e),
-                base_params_shift: motor_shift(&baseline.fit.result.params, &s.fit.result.params),
+                base_params_shift: motor_shift(added_to, &s.fit.result.params),
             }),
             second: Second {
                 effect: then.map(|(e, _)| e.name()),

@@ -117,8 +117,8 @@ fn text_reads_the_report() {
             "effects, best held-out misfit first:",
             "  coulomb_friction     train 0.5000  holdout 0.3000  significant",
             "  sensor_delay         train 0.5000  holdout 0.6900",
-            "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s (94 % of the misfit \
-             above noise removed), params {\"tc\":0.1}",
+            "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s with the effects \
+             below (94 % of the misfit above noise removed), params {\"tc\":0.1}",
             "then: quadratic_load: holdout rmse -> 0.2600 rad/s",
             "explained: the held-out misfit (0.3000 rad/s) is within 1.2 x the noise floor \
              (0.2500 rad/s)",
@@ -127,6 +127,46 @@ fn text_reads_the_report() {
     );
     let without = report(None).text();
     assert!(!without.contains("then:"));
+    assert!(without.contains("-> 0.3000 rad/s (94 %"), "{without}");
+}
+
+#[test]
+fn an_unexplained_verdict_without_a_remainder_says_what_holds_it_up() {
+    let stand_in = |name, in_model| PartialStandIn {
+        name,
+        share_of_excess: Num(0.5),
+        channel: "speed",
+        why: "because".into(),
+        in_model,
+    };
+    let mut r = report(None);
+    r.verdict.unexplained = true;
+    // An extension of an entry left out is passed over: not in the model, so not what
+    // holds the misfit at the floor; the current's misfit is what is left.
+    r.verdict.partial = vec![stand_in("static_friction", false)];
+    r.verdict.current = Some(ChannelVerdict {
+        holdout_rmse_before: Num(0.2),
+        holdout_rmse_after: Num(0.1),
+        holdout_noise: Num(0.05),
+        unexplained: true,
+    });
+    let text = r.text();
+    assert!(!text.contains("only with the partial stand-ins"), "{text}");
+    assert!(
+        text.contains(
+            "unexplained: the held-out current misfit (0.1000 A) stays above 1.2 x its noise (0.0500 A)"
+        ),
+        "{text}"
+    );
+    // A stand-in in the model is.
+    r.verdict.partial.push(stand_in("brush_drop", true));
+    r.verdict.current = None;
+    let text = r.text();
+    assert!(
+        text.contains("only with the partial stand-ins (brush_drop)")
+            && text.contains("with the partial stand-ins ("),
+        "{text}"
+    );
 }
 
 #[test]
@@ -167,6 +207,7 @@ fn an_unexplained_remainder_is_said_with_its_size_and_place() {
         floor: "noise",
         floor_rmse: Num(0.25),
         regimes: vec![],
+        current_regimes: vec![],
         records: vec![],
         span: super::super::remainder::Span {
             file: "b.csv".into(),

@@ -33,8 +33,14 @@ impl DiagnoseReport {
             (Some(name), Some(chosen)) => {
                 let params = serde_json::to_string(&chosen.effect_params)
                     .expect("parameters always serialise");
+                // The figures are the final model's: with every effect in it.
+                let with = match (v.effects.len() > 1, v.partial.iter().any(|p| p.in_model)) {
+                    (_, true) => " with the effects below and the partial stand-ins",
+                    (true, false) => " with the effects below",
+                    (false, false) => "",
+                };
                 s += &format!(
-                    "verdict: {name}: holdout rmse {:.4} -> {:.4} rad/s ({:.0} % of the misfit above noise removed), params {params}\n",
+                    "verdict: {name}: holdout rmse {:.4} -> {:.4} rad/s{with} ({:.0} % of the misfit above noise removed), params {params}\n",
                     v.holdout_rmse_before.decimal(),
                     v.holdout_rmse_after.decimal(),
                     100.0 * v.share_of_misfit_removed.decimal(),
@@ -68,13 +74,27 @@ impl DiagnoseReport {
                     s += &format!("unexplained: {line}\n");
                 }
             }
-            None if v.unexplained && !v.partial.is_empty() => {
-                let names: Vec<&str> = v.partial.iter().map(|p| p.name).collect();
-                s += &format!(
-                    "unexplained: the held-out misfit ({:.4} rad/s) reaches the floor only with the partial stand-ins ({}): no named cause accounts for their share\n",
-                    v.holdout_rmse_after.decimal(),
-                    names.join(", ")
-                );
+            None if v.unexplained => {
+                let names: Vec<&str> = v
+                    .partial
+                    .iter()
+                    .filter(|p| p.in_model)
+                    .map(|p| p.name)
+                    .collect();
+                if !names.is_empty() {
+                    s += &format!(
+                        "unexplained: the held-out misfit ({:.4} rad/s) reaches the floor only with the partial stand-ins ({}): no named cause accounts for their share\n",
+                        v.holdout_rmse_after.decimal(),
+                        names.join(", ")
+                    );
+                }
+                if let Some(c) = v.current.as_ref().filter(|c| c.unexplained) {
+                    s += &format!(
+                        "unexplained: the held-out current misfit ({:.4} A) stays above {UNEXPLAINED_RATIO} x its noise ({:.4} A)\n",
+                        c.holdout_rmse_after.decimal(),
+                        c.holdout_noise.decimal()
+                    );
+                }
             }
             None => {
                 let (floor_rmse, kind) = floor(

@@ -92,13 +92,16 @@ fn holds(set: &[Effect], effect: Effect) -> bool {
 }
 
 /// `set` less `effect`: what `effect` extends takes its place unless the rest of the set
-/// holds it already (itself, or another effect that extends it).
-fn reduced(set: &[Effect], effect: Effect) -> Vec<Effect> {
+/// holds it already (itself, or another effect that extends it) or the user left it out
+/// (`without`: it never enters a model).
+fn reduced(set: &[Effect], effect: Effect, without: &[Effect]) -> Vec<Effect> {
     let rest: Vec<Effect> = set.iter().copied().filter(|e| *e != effect).collect();
     set.iter()
         .filter_map(|e| match (*e == effect, e.parent()) {
             (false, _) => Some(*e),
-            (true, Some(parent)) if !holds(&rest, parent) => Some(parent),
+            (true, Some(parent)) if !holds(&rest, parent) && !without.contains(&parent) => {
+                Some(parent)
+            }
             (true, _) => None,
         })
         .collect()
@@ -195,11 +198,19 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     // the entry it extends, left out, stands in for it and is passed over.
     let mut first = None;
     let mut standing_in: Vec<StandingIn> = Vec::new();
+    // Extensions of a left-out entry whose own part the records do not show: never in a
+    // model, at this step or a later one (on top of other effects there is no fit of the
+    // left-out entry to judge their own part against).
+    let mut passed_over: Vec<Effect> = Vec::new();
     for (e, s) in &found.scored {
+        let needed = found.needed(*e);
+        if needed.is_none() {
+            passed_over.push(*e);
+        }
         if !found.significant(*e, s) {
             continue;
         }
-        match found.needed(*e) {
+        match needed {
             Some(needed) => first = first.or(Some(needed)),
             None => standing_in.push(StandingIn {
                 effect: *e,
@@ -232,11 +243,10 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         // its extension) adds nothing.
         let adds = |e: &Effect| e.params().iter().any(|id| !model.free[id.index()]);
         let names: Vec<&str> = in_model.iter().map(|e| e.name()).collect();
-        let standing_in = |e: &Effect| found.standing_in.iter().any(|s| s.effect == *e);
         let candidates: Vec<Effect> = usable
             .iter()
             .copied()
-            .filter(|e| !in_model.contains(e) && adds(e) && !standing_in(e))
+            .filter(|e| !in_model.contains(e) && adds(e) && !passed_over.contains(e))
             .collect();
         let fits = in_parallel(candidates.len(), |k| {
             let effect = candidates[k];
@@ -283,8 +293,10 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             set.iter().map(|e| e.name()).collect::<Vec<_>>().join(" + ")
         ));
         let fits = in_parallel(set.len(), |k| {
-            let rest = reduced(&set, set[k]);
-            let start = cx.without(&fin.fit.result.params, set[k]);
+            let rest = reduced(&set, set[k], without);
+            // What the rest does not hold goes back to the baseline's values (the entry
+            // `set[k]` extends too, when it is left out).
+            let start = cx.only(&fin.fit.result.params, &rest, &set[k..=k]);
             cx.refit(&rest, &start)
         });
         let mut weakest: Option<(usize, Scored)> = None;
@@ -308,7 +320,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             "{} dropped: not significant in the final model",
             set[k].name()
         ));
-        set = reduced(&set, set[k]);
+        set = reduced(&set, set[k], without);
         fin = f;
     }
 
@@ -382,18 +394,27 @@ mod tests {
     fn an_effect_taken_out_leaves_what_it_extends_unless_already_there() {
         use Effect::{AsymmetricFriction, BridgeDeadtime, CoulombFriction, StaticFriction};
         assert_eq!(
-            reduced(&[BridgeDeadtime, StaticFriction], StaticFriction),
+            reduced(&[BridgeDeadtime, StaticFriction], StaticFriction, &[]),
             vec![BridgeDeadtime, CoulombFriction]
         );
         assert_eq!(
-            reduced(&[StaticFriction, BridgeDeadtime], BridgeDeadtime),
+            reduced(&[StaticFriction, BridgeDeadtime], BridgeDeadtime, &[]),
             vec![StaticFriction]
         );
         // Both extensions of Coulomb friction: taking one out leaves the other, which
         // holds Coulomb friction already.
         assert_eq!(
-            reduced(&[StaticFriction, AsymmetricFriction], StaticFriction),
+            reduced(&[StaticFriction, AsymmetricFriction], StaticFriction, &[]),
             vec![AsymmetricFriction]
+        );
+        // Coulomb friction left out by the user never takes its extension's place.
+        assert_eq!(
+            reduced(
+                &[BridgeDeadtime, StaticFriction],
+                StaticFriction,
+                &[CoulombFriction]
+            ),
+            vec![BridgeDeadtime]
         );
     }
 }

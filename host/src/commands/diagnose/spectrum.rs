@@ -228,6 +228,7 @@ mod tests {
             residual,
             omega: omega.clone(),
             current: vec![0.0; 4000],
+            current_residual: None,
         };
         // The largest difference from the simulated speed after taking out `order`.
         let left_at = |order: u32| {
