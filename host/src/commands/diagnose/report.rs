@@ -293,23 +293,20 @@ impl DiagnoseReport {
         // Eq. 6) along which a torque-like parameter scales too (Coulomb friction's tc with
         // J and B), so it is unpinned whatever the records show of its form.
         if stand_in.is_none() && data.with_current {
-            let mut before = channels[0].before;
-            for (e, s) in search.named() {
+            let (effects, steps): (Vec<Effect>, Vec<f32>) =
+                search.named().map(|(e, s)| (e, s.holdout_rmse)).unzip();
+            let names: Vec<&'static str> = effects.iter().map(|e| e.name()).collect();
+            let each = stand_ins(&names, &steps, &channels[0], "");
+            for (e, mut p) in effects.into_iter().zip(each) {
                 let free = unpinned_own(e, final_fit);
                 if !free.is_empty() {
                     loose.push(e);
-                    partial.push(PartialStandIn {
-                        name: e.name(),
-                        share_of_excess: Num(channels[0].share(before, s.holdout_rmse)),
-                        channel: channels[0].name,
-                        why: format!(
-                            "the records do not pin its {}: they do not show its form, only that it shaves the misfit",
-                            free.join(", ")
-                        ),
-                        in_model: true,
-                    });
+                    p.why = format!(
+                        "the records do not pin its {}: they do not show its form, only that it shaves the misfit",
+                        free.join(", ")
+                    );
+                    partial.push(p);
                 }
-                before = s.holdout_rmse;
             }
         }
         let named = stand_in.is_none();
