@@ -236,14 +236,12 @@ pub fn unchecked(id: &mut Identifiability, space: &Space) {
 /// `lm` for the check's refits: they stop once an accepted step lowers the cost by less
 /// than `chi2` residual variances (`sigma2`) from about `cost`, not at the fit's own
 /// tolerance (the check compares rises of the cost with 9 and 1, not its last digits).
-/// The tolerance is relative (least squares compares a step's gain with the cost it starts
-/// from): `chi2` units at the fit's optimum, proportionally more at a start higher up the
-/// valley's wall, so that a refit from far up may stop with a few units still to gain.
-fn stopping_at(lm: &LmConfig, chi2: f64, sigma2: f64, cost: &Cost) -> LmConfig {
+/// The tolerance is absolute: a refit from high up the valley's wall does not stop with
+/// more than that still to gain (a tolerance relative to the cost, `chi2` units at the
+/// optimum, grew with the start's height).
+fn stopping_at(lm: &LmConfig, chi2: f64, sigma2: f64) -> LmConfig {
     LmConfig {
-        rel_tol: lm
-            .rel_tol
-            .max(chi2 * sigma2 / cost.sse.max(f64::MIN_POSITIVE)),
+        abs_tol: chi2 * sigma2,
         ..*lm
     }
 }
@@ -274,7 +272,7 @@ fn profile_rise(
         objective,
         &profile,
         &start,
-        &stopping_at(lm, PROFILE_TOL, sigma2, cost),
+        &stopping_at(lm, PROFILE_TOL, sigma2),
     )?;
     Some(((r.cost.sse - cost.sse) / sigma2).max(1e-12))
 }
@@ -300,7 +298,7 @@ fn walk_the_valley(
     let mut farthest = [0.0f64; MAX_FREE];
     // A point is judged against VALLEY_FIT: the descent onto the valley stops at a tenth
     // of it (the crawl along the valley's floor that follows would not change the verdict).
-    let walk_lm = stopping_at(lm, 0.1 * VALLEY_FIT, sigma2, cost);
+    let walk_lm = stopping_at(lm, 0.1 * VALLEY_FIT, sigma2);
     for direction in &id.unpinned {
         // The direction in unit coordinates (natural = per_unit * unit).
         let mut du = [0.0f32; MAX_FREE];

@@ -22,6 +22,9 @@ pub struct LmConfig {
     pub h: f32,
     /// Stop when an accepted step lowers the SSE by less than this fraction.
     pub rel_tol: f64,
+    /// Or by less than this much (0: no absolute tolerance): a refit that needs the SSE to
+    /// a set number of residual variances, not to its last digits (the profile check's).
+    pub abs_tol: f64,
     /// Initial damping.
     pub lambda0: f64,
 }
@@ -32,6 +35,7 @@ impl Default for LmConfig {
             max_iterations: 40,
             h: 1e-4,
             rel_tol: 1e-6,
+            abs_tol: 0.0,
             lambda0: 1e-3,
         }
     }
@@ -188,7 +192,7 @@ fn lm_step(
             Some(c) if c.sse < ne.cost.sse => {
                 let gain = (ne.cost.sse - c.sse) / ne.cost.sse.max(f64::MIN_POSITIVE);
                 *lambda = (*lambda / 5.0).max(1e-12);
-                if gain < cfg.rel_tol {
+                if gain < cfg.rel_tol || ne.cost.sse - c.sse < cfg.abs_tol {
                     // The refinement ends here: the cost of the point is all it needs (the
                     // same value the normal equations would give, from the same sums).
                     *u = trial;
