@@ -16,6 +16,7 @@ mod effect_fit;
 mod found;
 mod naming;
 mod plot;
+mod regime_shares;
 mod regimes;
 mod remainder;
 mod repeatability;

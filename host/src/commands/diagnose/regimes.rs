@@ -1,108 +1,12 @@
-//! Where the baseline misfits: the residual's share by operating regime and record, its
-//! correlation with the signatures of the catalogued effects, and the peak of its order
-//! spectrum ([`super::spectrum`]).
+//! Where the baseline misfits: the residual's share by operating regime
+//! ([`super::regime_shares`]) and record, its correlation with the signatures of the
+//! catalogued effects, and the peak of its order spectrum ([`super::spectrum`]).
 
-use super::data::{peak, Trace};
+use super::data::Trace;
+use super::regime_shares::{round, shares, RegimeSamples, RegimeShare};
 use super::spectrum::{order_peak, OrderPeak};
 use motor_id_shared::model::effects::{Effect, Signature, SignatureSample};
 use serde::Serialize;
-
-/// A class of samples.
-struct Regime {
-    name: &'static str,
-    short: &'static str,
-    member: fn(&Sample) -> bool,
-}
-
-/// What is known about one sample.
-struct Sample {
-    omega: f32,
-    accel: f32,
-    current: f32,
-    omega_max: f32,
-    accel_max: f32,
-    current_max: f32,
-}
-
-const REGIMES: [Regime; 12] = [
-    Regime {
-        name: "transients (start-up and speed changes)",
-        short: "transient",
-        member: |s| s.accel.abs() > 0.1 * s.accel_max,
-    },
-    Regime {
-        name: "start-up (gaining speed below 30 % of max)",
-        short: "start-up",
-        member: |s| {
-            s.omega.abs() < 0.3 * s.omega_max && s.accel * s.omega.signum() > 0.1 * s.accel_max
-        },
-    },
-    Regime {
-        name: "steady state",
-        short: "steady",
-        member: |s| s.accel.abs() <= 0.1 * s.accel_max,
-    },
-    Regime {
-        name: "acceleration",
-        short: "accel.",
-        member: |s| s.accel * s.omega.signum() > 0.1 * s.accel_max,
-    },
-    Regime {
-        name: "deceleration",
-        short: "decel.",
-        member: |s| s.accel * s.omega.signum() < -0.1 * s.accel_max,
-    },
-    Regime {
-        name: "low speed (< 30 % of max)",
-        short: "low speed",
-        member: |s| s.omega.abs() < 0.3 * s.omega_max,
-    },
-    Regime {
-        name: "high speed (>= 30 % of max)",
-        short: "high speed",
-        member: |s| s.omega.abs() >= 0.3 * s.omega_max,
-    },
-    Regime {
-        name: "forward rotation",
-        short: "forward",
-        member: |s| s.omega > 0.05 * s.omega_max,
-    },
-    Regime {
-        name: "reverse rotation",
-        short: "reverse",
-        member: |s| s.omega < -0.05 * s.omega_max,
-    },
-    Regime {
-        name: "near standstill",
-        short: "standstill",
-        member: |s| s.omega.abs() <= 0.05 * s.omega_max,
-    },
-    Regime {
-        name: "positive current",
-        short: "i > 0",
-        member: |s| s.current > 0.05 * s.current_max,
-    },
-    Regime {
-        name: "negative current",
-        short: "i < 0",
-        member: |s| s.current < -0.05 * s.current_max,
-    },
-];
-
-/// Central-difference derivative.
-fn derivative(x: &[f32], dt: f32) -> Vec<f32> {
-    let n = x.len();
-    (0..n)
-        .map(|k| {
-            let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
-            if b > a {
-                (x[b] - x[a]) / ((b - a) as f32 * dt)
-            } else {
-                0.0
-            }
-        })
-        .collect()
-}
 
 /// Pearson correlation.
 fn correlation(a: &[f64], b: &[f64]) -> f64 {
@@ -144,21 +48,6 @@ pub struct WhereReport {
     pub summary: Vec<String>,
 }
 
-/// One regime's share of the misfit.
-#[derive(Serialize, Debug, Clone, PartialEq)]
-pub struct RegimeShare {
-    /// Name.
-    pub name: &'static str,
-    /// Short name (plot label).
-    pub short: &'static str,
-    /// Share of the squared residual.
-    pub share_of_misfit: f64,
-    /// Share of the samples.
-    pub share_of_samples: f64,
-    /// RMSE within it [rad/s].
-    pub rmse: f64,
-}
-
 /// One record's share of the misfit.
 #[derive(Serialize, Debug, Clone, PartialEq)]
 pub struct RecordShare {
@@ -194,135 +83,9 @@ pub struct Spectrum {
     pub points_to: &'static str,
 }
 
-/// The regime of every sample of `traces`, with the maxima over them (the classes'
-/// thresholds are shares of these).
-struct Samples {
-    per_trace: Vec<Vec<Sample>>,
-}
-
-impl Samples {
-    fn of(traces: &[Trace]) -> Samples {
-        let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
-        let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
-        let accels: Vec<Vec<f32>> = traces.iter().map(|t| derivative(&t.omega, t.dt)).collect();
-        let accel_max = accels.iter().map(|a| peak(a)).fold(0.0, f32::max);
-        let per_trace = traces
-            .iter()
-            .zip(&accels)
-            .map(|(t, acc)| {
-                (0..t.omega.len())
-                    .map(|k| Sample {
-                        omega: t.omega[k],
-                        accel: acc[k],
-                        current: t.current[k],
-                        omega_max,
-                        accel_max,
-                        current_max,
-                    })
-                    .collect()
-            })
-            .collect();
-        Samples { per_trace }
-    }
-}
-
-/// Each regime's share of the squared `residual` of every trace (the speed's, or the
-/// current's), the most over-represented first, and the three most over-represented (at
-/// least 1.3 times their share of the samples) in words, `what` naming the misfit and
-/// `unit` its unit.
-fn shares<'t>(
-    traces: &'t [Trace],
-    samples: &Samples,
-    residual: impl Fn(&'t Trace) -> Option<&'t [f32]>,
-    what: &str,
-    unit: &str,
-) -> (Vec<RegimeShare>, Vec<String>) {
-    let mut total = 0.0f64;
-    let mut n = 0usize;
-    let mut regime_sse = [0.0f64; REGIMES.len()];
-    let mut regime_n = [0usize; REGIMES.len()];
-    for (t, at) in traces.iter().zip(&samples.per_trace) {
-        let Some(r) = residual(t) else { continue };
-        for (r, s) in r.iter().zip(at) {
-            let r2 = (*r as f64) * (*r as f64);
-            total += r2;
-            n += 1;
-            for (i, reg) in REGIMES.iter().enumerate() {
-                if (reg.member)(s) {
-                    regime_sse[i] += r2;
-                    regime_n[i] += 1;
-                }
-            }
-        }
-    }
-    let total = total.max(f64::MIN_POSITIVE);
-    let n = n.max(1) as f64;
-    let mut regimes: Vec<RegimeShare> = Vec::new();
-    let mut ranked: Vec<(f64, String)> = Vec::new();
-    for (i, reg) in REGIMES.iter().enumerate() {
-        if regime_n[i] == 0 {
-            continue;
-        }
-        let share = regime_sse[i] / total;
-        let sample_share = regime_n[i] as f64 / n;
-        let rmse = (regime_sse[i] / regime_n[i] as f64).sqrt();
-        regimes.push(RegimeShare {
-            name: reg.name,
-            short: reg.short,
-            share_of_misfit: round(share),
-            share_of_samples: round(sample_share),
-            rmse: round(rmse),
-        });
-        ranked.push((
-            share / sample_share,
-            format!(
-                "{:.0} % of {what} lies in {} ({:.0} % of the samples, rmse {:.3} {unit})",
-                100.0 * share,
-                reg.name,
-                100.0 * sample_share,
-                rmse
-            ),
-        ));
-    }
-    regimes.sort_by(|a, b| {
-        let c = |r: &RegimeShare| r.share_of_misfit / r.share_of_samples;
-        c(b).total_cmp(&c(a))
-    });
-    ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let lines = ranked
-        .into_iter()
-        .filter(|(ratio, _)| *ratio > 1.3)
-        .take(3)
-        .map(|(_, s)| s)
-        .collect();
-    (regimes, lines)
-}
-
-/// Where the current's misfit lies on `traces` that hold a measured current's residual
-/// ([`Trace::current_residual`]): each regime's share, the most over-represented first, and
-/// the findings in words; `None` when no trace holds one. The current shows where an effect
-/// acts through it (a current limit flattens the current at start-ups and reversals, where
-/// the speed's misfit follows only later, at speed).
-pub fn current_where(traces: &[Trace]) -> Option<(Vec<RegimeShare>, Vec<String>)> {
-    traces
-        .iter()
-        .any(|t| t.current_residual.is_some())
-        .then(|| {
-            shares(
-                traces,
-                &Samples::of(traces),
-                |t| t.current_residual.as_deref(),
-                "the current's misfit",
-                "A",
-            )
-        })
-}
-
 /// Where the baseline misfits `traces`, with `noise` the measured speed noise.
 pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
-    let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
-    let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
-    let samples = Samples::of(traces);
+    let samples = RegimeSamples::of(traces);
     let (regimes, lines) = shares(
         traces,
         &samples,
@@ -349,8 +112,8 @@ pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
                 omega: s.omega as f64,
                 accel: s.accel as f64,
                 current: s.current as f64,
-                omega_max: omega_max as f64,
-                current_max: current_max as f64,
+                omega_max: s.omega_max as f64,
+                current_max: s.current_max as f64,
             };
             for (series, (_, signature)) in sig.iter_mut().zip(&names) {
                 series.push((signature.at)(&at));
@@ -422,14 +185,6 @@ pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
     }
 }
 
-fn round(x: f64) -> f64 {
-    if x.is_finite() {
-        (x * 1e6).round() / 1e6
-    } else {
-        0.0
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -484,49 +239,5 @@ mod tests {
         // Fitted to the noise: said first.
         let quiet = analyse(&[reversal(0.01)], 0.01);
         assert!(quiet.summary[0].starts_with("the baseline fits to the noise"));
-    }
-
-    /// A start from rest to 100 rad/s, a hold, a stop and a rest, the current's residual
-    /// in the first 25 samples (a flat-topped current at the start).
-    fn start_and_stop() -> Trace {
-        let omega: Vec<f32> = (0..500)
-            .map(|k| match k {
-                0..100 => k as f32,
-                100..300 => 100.0,
-                300..400 => (400 - k) as f32,
-                _ => 0.0,
-            })
-            .collect();
-        let current = (0..500)
-            .map(|k| match k {
-                0..100 => 1.0,
-                100..300 => 0.1,
-                _ => 0.0,
-            })
-            .collect();
-        Trace {
-            name: "s.csv".into(),
-            set: "holdout",
-            dt: 0.01,
-            residual: vec![0.0; 500],
-            current,
-            current_residual: Some((0..500).map(|k| if k < 25 { -0.3 } else { 0.0 }).collect()),
-            omega,
-        }
-    }
-
-    #[test]
-    fn the_current_s_misfit_at_a_start_is_found_at_the_start() {
-        let (regimes, lines) = current_where(&[start_and_stop()]).expect("a current residual");
-        assert_eq!(regimes[0].short, "start-up", "{regimes:?}");
-        assert_eq!(regimes[0].share_of_misfit, 1.0);
-        assert!(
-            lines[0].starts_with("100 % of the current's misfit lies in start-up")
-                && lines[0].ends_with(" A)"),
-            "{lines:?}"
-        );
-        let mut speed_only = start_and_stop();
-        speed_only.current_residual = None;
-        assert!(current_where(&[speed_only]).is_none());
     }
 }

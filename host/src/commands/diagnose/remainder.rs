@@ -11,7 +11,8 @@
 
 use super::data::{Data, Trace};
 use super::drift::{self, Drift};
-use super::regimes::{self, RecordShare, RegimeShare};
+use super::regime_shares::{self, RegimeShare};
+use super::regimes::{self, RecordShare};
 use crate::fit::{Fit, FitOptions};
 use crate::report::Num;
 use anyhow::Result;
@@ -113,7 +114,8 @@ pub fn remainder(
             .filter(|line| line.contains("of the misfit lies in"))
             .cloned(),
     );
-    let (current_regimes, current_lines) = regimes::current_where(&traces).unwrap_or_default();
+    let (current_regimes, current_lines) =
+        regime_shares::current_where(&traces).unwrap_or_default();
     summary.extend(current_lines);
     summary.push(format!(
         "its largest share ({:.0} %) lies in {} from {:.3} s to {:.3} s",

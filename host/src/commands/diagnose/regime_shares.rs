@@ -1,0 +1,302 @@
+//! Each operating regime's share of a residual (the speed's, or a measured current's):
+//! the classes of samples ([`REGIMES`]: transients, start-ups, steady state, speed, direction,
+//! sign of the current) and how over-represented each is in the misfit. Used for where the
+//! baseline misfits ([`super::regimes`]) and where the final model's remainder lies
+//! ([`super::remainder`]).
+
+use super::data::{peak, Trace};
+use serde::Serialize;
+
+/// A class of samples.
+struct Regime {
+    name: &'static str,
+    short: &'static str,
+    member: fn(&Sample) -> bool,
+}
+
+/// What is known about one sample.
+pub(super) struct Sample {
+    pub(super) omega: f32,
+    pub(super) accel: f32,
+    pub(super) current: f32,
+    pub(super) omega_max: f32,
+    pub(super) accel_max: f32,
+    pub(super) current_max: f32,
+}
+
+const REGIMES: [Regime; 12] = [
+    Regime {
+        name: "transients (start-up and speed changes)",
+        short: "transient",
+        member: |s| s.accel.abs() > 0.1 * s.accel_max,
+    },
+    Regime {
+        name: "start-up (gaining speed below 30 % of max)",
+        short: "start-up",
+        member: |s| {
+            s.omega.abs() < 0.3 * s.omega_max && s.accel * s.omega.signum() > 0.1 * s.accel_max
+        },
+    },
+    Regime {
+        name: "steady state",
+        short: "steady",
+        member: |s| s.accel.abs() <= 0.1 * s.accel_max,
+    },
+    Regime {
+        name: "acceleration",
+        short: "accel.",
+        member: |s| s.accel * s.omega.signum() > 0.1 * s.accel_max,
+    },
+    Regime {
+        name: "deceleration",
+        short: "decel.",
+        member: |s| s.accel * s.omega.signum() < -0.1 * s.accel_max,
+    },
+    Regime {
+        name: "low speed (< 30 % of max)",
+        short: "low speed",
+        member: |s| s.omega.abs() < 0.3 * s.omega_max,
+    },
+    Regime {
+        name: "high speed (>= 30 % of max)",
+        short: "high speed",
+        member: |s| s.omega.abs() >= 0.3 * s.omega_max,
+    },
+    Regime {
+        name: "forward rotation",
+        short: "forward",
+        member: |s| s.omega > 0.05 * s.omega_max,
+    },
+    Regime {
+        name: "reverse rotation",
+        short: "reverse",
+        member: |s| s.omega < -0.05 * s.omega_max,
+    },
+    Regime {
+        name: "near standstill",
+        short: "standstill",
+        member: |s| s.omega.abs() <= 0.05 * s.omega_max,
+    },
+    Regime {
+        name: "positive current",
+        short: "i > 0",
+        member: |s| s.current > 0.05 * s.current_max,
+    },
+    Regime {
+        name: "negative current",
+        short: "i < 0",
+        member: |s| s.current < -0.05 * s.current_max,
+    },
+];
+
+/// Central-difference derivative.
+fn derivative(x: &[f32], dt: f32) -> Vec<f32> {
+    let n = x.len();
+    (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(n - 1));
+            if b > a {
+                (x[b] - x[a]) / ((b - a) as f32 * dt)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// One regime's share of the misfit.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct RegimeShare {
+    /// Name.
+    pub name: &'static str,
+    /// Short name (plot label).
+    pub short: &'static str,
+    /// Share of the squared residual.
+    pub share_of_misfit: f64,
+    /// Share of the samples.
+    pub share_of_samples: f64,
+    /// RMSE within it [rad/s].
+    pub rmse: f64,
+}
+
+/// What is known about every sample of `traces`, trace by trace, with the maxima over all
+/// of them (the classes' thresholds are shares of these).
+pub(super) struct RegimeSamples {
+    pub(super) per_trace: Vec<Vec<Sample>>,
+}
+
+impl RegimeSamples {
+    pub(super) fn of(traces: &[Trace]) -> RegimeSamples {
+        let omega_max = traces.iter().map(|t| peak(&t.omega)).fold(0.0, f32::max);
+        let current_max = traces.iter().map(|t| peak(&t.current)).fold(0.0, f32::max);
+        let accels: Vec<Vec<f32>> = traces.iter().map(|t| derivative(&t.omega, t.dt)).collect();
+        let accel_max = accels.iter().map(|a| peak(a)).fold(0.0, f32::max);
+        let per_trace = traces
+            .iter()
+            .zip(&accels)
+            .map(|(t, acc)| {
+                (0..t.omega.len())
+                    .map(|k| Sample {
+                        omega: t.omega[k],
+                        accel: acc[k],
+                        current: t.current[k],
+                        omega_max,
+                        accel_max,
+                        current_max,
+                    })
+                    .collect()
+            })
+            .collect();
+        RegimeSamples { per_trace }
+    }
+}
+
+/// Each regime's share of the squared `residual` of every trace (the speed's, or the
+/// current's), the most over-represented first, and the three most over-represented (at
+/// least 1.3 times their share of the samples) in words, `what` naming the misfit and
+/// `unit` its unit.
+pub(super) fn shares<'t>(
+    traces: &'t [Trace],
+    samples: &RegimeSamples,
+    residual: impl Fn(&'t Trace) -> Option<&'t [f32]>,
+    what: &str,
+    unit: &str,
+) -> (Vec<RegimeShare>, Vec<String>) {
+    let mut total = 0.0f64;
+    let mut n = 0usize;
+    let mut regime_sse = [0.0f64; REGIMES.len()];
+    let mut regime_n = [0usize; REGIMES.len()];
+    for (t, at) in traces.iter().zip(&samples.per_trace) {
+        let Some(r) = residual(t) else { continue };
+        for (r, s) in r.iter().zip(at) {
+            let r2 = (*r as f64) * (*r as f64);
+            total += r2;
+            n += 1;
+            for (i, reg) in REGIMES.iter().enumerate() {
+                if (reg.member)(s) {
+                    regime_sse[i] += r2;
+                    regime_n[i] += 1;
+                }
+            }
+        }
+    }
+    let total = total.max(f64::MIN_POSITIVE);
+    let n = n.max(1) as f64;
+    let mut regimes: Vec<RegimeShare> = Vec::new();
+    let mut ranked: Vec<(f64, String)> = Vec::new();
+    for (i, reg) in REGIMES.iter().enumerate() {
+        if regime_n[i] == 0 {
+            continue;
+        }
+        let share = regime_sse[i] / total;
+        let sample_share = regime_n[i] as f64 / n;
+        let rmse = (regime_sse[i] / regime_n[i] as f64).sqrt();
+        regimes.push(RegimeShare {
+            name: reg.name,
+            short: reg.short,
+            share_of_misfit: round(share),
+            share_of_samples: round(sample_share),
+            rmse: round(rmse),
+        });
+        ranked.push((
+            share / sample_share,
+            format!(
+                "{:.0} % of {what} lies in {} ({:.0} % of the samples, rmse {:.3} {unit})",
+                100.0 * share,
+                reg.name,
+                100.0 * sample_share,
+                rmse
+            ),
+        ));
+    }
+    regimes.sort_by(|a, b| {
+        let c = |r: &RegimeShare| r.share_of_misfit / r.share_of_samples;
+        c(b).total_cmp(&c(a))
+    });
+    ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let lines = ranked
+        .into_iter()
+        .filter(|(ratio, _)| *ratio > 1.3)
+        .take(3)
+        .map(|(_, s)| s)
+        .collect();
+    (regimes, lines)
+}
+
+/// Where the current's misfit lies on `traces` that hold a measured current's residual
+/// ([`Trace::current_residual`]): each regime's share, the most over-represented first, and
+/// the findings in words; `None` when no trace holds one. The current shows where an effect
+/// acts through it (a current limit flattens the current at start-ups and reversals, where
+/// the speed's misfit follows only later, at speed).
+pub fn current_where(traces: &[Trace]) -> Option<(Vec<RegimeShare>, Vec<String>)> {
+    traces
+        .iter()
+        .any(|t| t.current_residual.is_some())
+        .then(|| {
+            shares(
+                traces,
+                &RegimeSamples::of(traces),
+                |t| t.current_residual.as_deref(),
+                "the current's misfit",
+                "A",
+            )
+        })
+}
+
+/// `x` rounded to 1e-6 (0 when not finite), for the reports.
+pub(super) fn round(x: f64) -> f64 {
+    if x.is_finite() {
+        (x * 1e6).round() / 1e6
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A start from rest to 100 rad/s, a hold, a stop and a rest, the current's residual
+    /// in the first 25 samples (a flat-topped current at the start).
+    fn start_and_stop() -> Trace {
+        let omega: Vec<f32> = (0..500)
+            .map(|k| match k {
+                0..100 => k as f32,
+                100..300 => 100.0,
+                300..400 => (400 - k) as f32,
+                _ => 0.0,
+            })
+            .collect();
+        let current = (0..500)
+            .map(|k| match k {
+                0..100 => 1.0,
+                100..300 => 0.1,
+                _ => 0.0,
+            })
+            .collect();
+        Trace {
+            name: "s.csv".into(),
+            set: "holdout",
+            dt: 0.01,
+            residual: vec![0.0; 500],
+            current,
+            current_residual: Some((0..500).map(|k| if k < 25 { -0.3 } else { 0.0 }).collect()),
+            omega,
+        }
+    }
+
+    #[test]
+    fn the_current_s_misfit_at_a_start_is_found_at_the_start() {
+        let (regimes, lines) = current_where(&[start_and_stop()]).expect("a current residual");
+        assert_eq!(regimes[0].short, "start-up", "{regimes:?}");
+        assert_eq!(regimes[0].share_of_misfit, 1.0);
+        assert!(
+            lines[0].starts_with("100 % of the current's misfit lies in start-up")
+                && lines[0].ends_with(" A)"),
+            "{lines:?}"
+        );
+        let mut speed_only = start_and_stop();
+        speed_only.current_residual = None;
+        assert!(current_where(&[speed_only]).is_none());
+    }
+}
