@@ -388,3 +388,7 @@ pub struct RecordPart {
     /// Current read, the sensor's offset removed [A] (empty when the record has none).
     pub current: heapless::Vec<f32, READ_CHUNK>,
 }
+
+#[cfg(test)]
+#[path = "protocol_tests.rs"]
+mod tests;
