@@ -4,7 +4,7 @@
 
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
-use motor_id_shared::device::virtual_board::commission;
+use motor_id_shared::device::virtual_board::{commission, Commissioning};
 use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::Refusal;
@@ -39,6 +39,13 @@ fn drive_at(rate: f64, m: Motor, tc: f64, seed: u64) -> ReferenceDrive {
     let (w, i) = limits.adc_counts(12);
     d.count = (w as f64, i as f64);
     d
+}
+
+/// `m` with its Coulomb friction ([`coulomb`]) commissioned within the default limits, the
+/// reference plant's drive sampled at `rate` with noise seed `seed`.
+fn commission_at(rate: f64, m: Motor, seed: u64) -> Commissioning {
+    let plant = drive_at(rate, m, coulomb(&m), seed);
+    commission(plant, Limits::DEFAULT, 1, None, &mut |_| {})
 }
 
 #[test]
@@ -281,7 +288,6 @@ fn a_viscous_dominated_motor_s_deviations_cover_its_curved_valley_on_the_referen
     // slide together along a curved valley, and the local deviations (3-4 %) missed the
     // truth by 3.6 of them on the first seed. The profile check widens them (to 6-8 %;
     // fit::profile_check, CURVED_STD) where they are wide enough for the valley to bend.
-    let limits = Limits::DEFAULT;
     let m = Motor {
         ra: 8.50672,
         la: 0.04865586,
@@ -291,13 +297,7 @@ fn a_viscous_dominated_motor_s_deviations_cover_its_curved_valley_on_the_referen
     };
     let tc = coulomb(&m);
     for seed in 1..=2 {
-        let c = commission(
-            drive_at(20_000.0, m, tc, seed),
-            limits,
-            1,
-            None,
-            &mut |_| {},
-        );
+        let c = commission_at(20_000.0, m, seed);
         let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
         for (id, t) in [
             (ParamId::J, m.j),
@@ -322,7 +322,6 @@ fn a_motor_whose_friction_takes_most_of_its_voltage_is_driven_above_its_break_aw
     // below its break-away, the records show only the probe's speed running down, and the fit
     // pinned J, B and tc 12-27 times too large at 40 of its deviations (commissioning
     // benchmark, motor 894). The speed bound credits a quarter of the ramp's break-away.
-    let limits = Limits::DEFAULT;
     let m = Motor {
         ra: 3.5167794,
         la: 0.37787357,
@@ -333,13 +332,7 @@ fn a_motor_whose_friction_takes_most_of_its_voltage_is_driven_above_its_break_aw
     let tc = coulomb(&m);
     let breakaway = m.ra * tc / m.kv;
     for seed in 1..=2 {
-        let c = commission(
-            drive_at(20_000.0, m, tc, seed),
-            limits,
-            1,
-            None,
-            &mut |_| {},
-        );
+        let c = commission_at(20_000.0, m, seed);
         let plan = c.plan.unwrap_or_else(|| panic!("seed {seed}: no plan"));
         assert!(
             plan.volts as f64 > 1.2 * breakaway,

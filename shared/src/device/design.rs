@@ -111,12 +111,13 @@ pub fn design(
     // step's (V₀ ≤ Ra i₁), or a quarter of the ramp's break-away (the ramp reads it late on
     // a heavy shaft, and a static friction breaks away above the sliding V₀: a quarter holds
     // for readings up to twice late beside a static friction up to twice the sliding one).
-    let settled_drop = match mechanical.settled {
+    let friction_drop = match mechanical.settled {
         true => electrical.ra * mechanical.current.max(0.0),
         false => 0.0,
     }
     .max(BREAKAWAY_CREDIT * floor);
-    let by_speed = mechanical.kv * SPEED_SHARE * limits.speed / mechanical.overshoot + settled_drop;
+    let by_speed =
+        mechanical.kv * SPEED_SHARE * limits.speed / mechanical.overshoot + friction_drop;
     let volts = limits.voltage.min(by_current).min(by_speed);
     // The ramp reads the break-away late on a heavy shaft (it must gather speed to be seen):
     // only a voltage under half of it is surely below the true break-away.
