@@ -5,7 +5,8 @@
 //! drive allows.
 //!
 //! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ]
-//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--verbose]`
+//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--verbose] [--only M (motor M
+//! of the run alone)]`
 
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
@@ -31,6 +32,8 @@ fn main() {
     let adc_bits: u32 = option(&args, "--adc-bits").unwrap_or(12);
     let coulomb: f32 = option(&args, "--coulomb").unwrap_or(0.05);
     let verbose = args.iter().any(|a| a == "--verbose");
+    // One motor of the run alone (its number, as the verbose lines give it).
+    let only: Option<usize> = option(&args, "--only");
     let limits = Limits::DEFAULT;
     let mut refusals: BTreeMap<String, usize> = BTreeMap::new();
     let (mut trips, mut like, mut like_ok, mut all_ok) = (0, 0, 0, 0);
@@ -50,6 +53,9 @@ fn main() {
     let mut evaluations = Vec::new();
     let mut simulations = Vec::new();
     for m in 0..motors {
+        if only.is_some_and(|o| o != m + 1) {
+            continue;
+        }
         let motor = table_one_motor(m as u64 + 1);
         let [ra, la, j, b, kv] = ParamId::MOTOR.map(|p| motor.get(p));
         let tc = coulomb * kv * limits.current;
@@ -82,14 +88,18 @@ fn main() {
             Err(JobEnd::Refused(Refusal::Trip)) => {
                 trips += 1;
                 if verbose {
-                    eprintln!("TRIP {truth:?} plan {:?}", c.plan);
+                    eprintln!("motor {}: TRIP {truth:?} plan {:?}", m + 1, c.plan);
                 }
                 continue;
             }
             Err(e) => {
                 *refusals.entry(format!("{e:?}")).or_default() += 1;
                 if verbose {
-                    eprintln!("refused {e:?}: ra {ra} la {la} j {j} b {b} kv {kv} tau_m {tau_m} plan {:?}", c.plan);
+                    eprintln!(
+                        "motor {}: refused {e:?}: ra {ra} la {la} j {j} b {b} kv {kv} tau_m {tau_m} plan {:?}",
+                        m + 1,
+                        c.plan
+                    );
                 }
                 continue;
             }
@@ -150,13 +160,15 @@ fn main() {
                 })
                 .collect();
             eprintln!(
-                "beyond 3 sigma: ra {ra} la {la} j {j} b {b} kv {kv} tau_m {tau_m}: {}",
+                "motor {}: beyond 3 sigma: ra {ra} la {la} j {j} b {b} kv {kv} tau_m {tau_m}: {}",
+                m + 1,
                 z.join(", ")
             );
         }
         if verbose && !ok && looks_like_motor {
             eprintln!(
-                "not all six: ra {ra} la {la} j {j} b {b} kv {kv} tc {tc} tau_m {tau_m}\n  plan {:?}\n  {:?}",
+                "motor {}: not all six: ra {ra} la {la} j {j} b {b} kv {kv} tc {tc} tau_m {tau_m}\n  plan {:?}\n  {:?}",
+                m + 1,
                 c.plan, report.estimates
             );
         }

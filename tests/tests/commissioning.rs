@@ -7,7 +7,7 @@ use motor_id_shared::device::plant::SimulatedPlant;
 use motor_id_shared::device::virtual_board::{commission, Commissioning};
 use motor_id_shared::param_id::ParamId;
 use motor_id_shared::wire::limits::Limits;
-use motor_id_shared::wire::protocol::Refusal;
+use motor_id_shared::wire::protocol::{MotorReport, Plan, Refusal};
 use motor_id_shared::ModelParams;
 use motor_id_tests::reference_plant::drive::ReferenceDrive;
 use motor_id_tests::reference_plant::{Effects, Motor};
@@ -46,6 +46,26 @@ fn drive_at(rate: f64, m: Motor, tc: f64, seed: u64) -> ReferenceDrive {
 fn commission_at(rate: f64, m: Motor, seed: u64) -> Commissioning {
     let plant = drive_at(rate, m, coulomb(&m), seed);
     commission(plant, Limits::DEFAULT, 1, None, &mut |_| {})
+}
+
+/// All six of `report` pinned and within 3 % of motor `m` with Coulomb friction `tc`.
+fn assert_six_within_3_percent(report: &MotorReport, m: &Motor, tc: f64, plan: &Option<Plan>) {
+    let truth = [
+        (ParamId::Ra, m.ra),
+        (ParamId::La, m.la),
+        (ParamId::J, m.j),
+        (ParamId::B, m.b),
+        (ParamId::Kv, m.kv),
+        (ParamId::Tc, tc),
+    ];
+    for (id, t) in truth {
+        let e = report.get(id.index() as u8).expect("six estimates");
+        assert!(
+            e.pinned() && (e.value as f64 / t - 1.0).abs() < 0.03,
+            "{m:?} {}: {e:?} vs {t}, plan {plan:?}",
+            id.name(),
+        );
+    }
 }
 
 #[test]
@@ -98,23 +118,7 @@ fn corners_of_the_box_commission_within_three_percent_on_the_reference_plant() {
         let report = c
             .result
             .unwrap_or_else(|e| panic!("{m:?}: {e:?}, plan {:?}", c.plan));
-        let truth = [
-            (ParamId::Ra, m.ra),
-            (ParamId::La, m.la),
-            (ParamId::J, m.j),
-            (ParamId::B, m.b),
-            (ParamId::Kv, m.kv),
-            (ParamId::Tc, tc),
-        ];
-        for (id, t) in truth {
-            let e = report.get(id.index() as u8).expect("six estimates");
-            assert!(
-                e.pinned() && (e.value as f64 / t - 1.0).abs() < 0.03,
-                "{m:?} {}: {e:?} vs {t}, plan {:?}",
-                id.name(),
-                c.plan
-            );
-        }
+        assert_six_within_3_percent(&report, &m, tc, &c.plan);
         assert!(c.seconds <= limits.budget, "{m:?}: {} s", c.seconds);
     }
 }
@@ -166,8 +170,9 @@ fn a_long_electrical_time_constant_is_waited_for_on_the_reference_plant() {
         );
     }
     // Viscous loss above back-EMF (Kv^2 < Ra B / 4) and La/Ra of 2.7 s: the probe's V - Ra i
-    // is lost in its Ra's error. Never a trip: refused for what it is (no back-EMF to
-    // measure Kv by), with the current under its limit.
+    // is lost in its Ra's error, so V / Kv bounds nothing. Its step's own rise does
+    // (design::by_rise: refused as `NoBackEmf` before it): commissioned at the step's
+    // voltage, all six within 3 %, with the current under its limit.
     let m = Motor {
         ra: 0.6540265,
         la: 1.7387898,
@@ -178,12 +183,10 @@ fn a_long_electrical_time_constant_is_waited_for_on_the_reference_plant() {
     let tc = coulomb(&m);
     let mut d = drive_at(20_000.0, m, tc, 4);
     let c = commission(&mut d, limits, 1, None, &mut |_| {});
-    assert_eq!(
-        c.result.as_ref().err(),
-        Some(&JobEnd::Refused(Refusal::NoBackEmf)),
-        "{:?}",
-        c.plan
-    );
+    let report = c
+        .result
+        .unwrap_or_else(|e| panic!("{e:?}, plan {:?}", c.plan));
+    assert_six_within_3_percent(&report, &m, tc, &c.plan);
     assert!(d.largest.0 < limits.current as f64, "{} A", d.largest.0);
 }
 
@@ -347,6 +350,80 @@ fn a_motor_whose_friction_takes_most_of_its_voltage_is_driven_above_its_break_aw
                 "seed {seed} {}: {e:?} against {t}",
                 id.name()
             );
+        }
+    }
+}
+
+#[test]
+fn a_heavy_viscous_shaft_whose_step_never_settles_is_driven_above_its_break_away() {
+    // A viscous-dominated motor (Kv^2 = 0.017 Ra B) on a heavy shaft: the probe's step at
+    // 50 V rises for its whole time without settling, and its break-away (Ra tc / Kv =
+    // 19.9 V) lies far above the speed limit over Kv (0.0155 x 350 rad/s = 5.4 V). Bounded by
+    // V / Kv alone, the records were driven at 5.2 V, the shaft stood through them, and the
+    // fit pinned J and tc 18 times too large at 50 of their deviations (commissioning
+    // benchmark, motor 923). The probe's own rise bounds the records' speed (design::by_rise).
+    let m = Motor {
+        ra: 9.936631,
+        la: 1.7347332,
+        j: 0.026850268,
+        b: 0.0014251493,
+        kv: 0.01552794,
+    };
+    let tc = coulomb(&m);
+    let breakaway = m.ra * tc / m.kv;
+    for seed in 1..=2 {
+        let c = commission_at(RATE, m, seed);
+        let plan = c.plan.unwrap_or_else(|| panic!("seed {seed}: no plan"));
+        assert!(
+            plan.volts as f64 > 1.5 * breakaway,
+            "seed {seed}: {} V against a break-away of {breakaway} V",
+            plan.volts
+        );
+        let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
+        for (id, t) in [
+            (ParamId::J, m.j),
+            (ParamId::B, m.b),
+            (ParamId::Kv, m.kv),
+            (ParamId::Tc, tc),
+        ] {
+            let e = report.get(id.index() as u8).expect("six estimates");
+            assert!(
+                e.pinned() && (e.value as f64 - t).abs() <= 3.0 * e.std as f64,
+                "seed {seed} {}: {e:?} against {t}",
+                id.name()
+            );
+        }
+    }
+}
+
+#[test]
+fn a_scale_whose_back_emf_lies_under_half_a_count_is_not_pinned() {
+    // Viscous loss 700 times the back-EMF's share: at the records' top speed (3.5 rad/s) the
+    // back-EMF takes 5.5 mA of a 23 mA count of the current reading, whose noise (5 mA) is
+    // too small to dither its rounding. J, B, Kv and tc, which the speed gives only relative
+    // to Kv, scale together unseen; the fit called all four pinned, 55 % off at 25 to 37 of
+    // their deviations (commissioning benchmark, motor 217; fit::scale_resolution).
+    let m = Motor {
+        ra: 8.556867,
+        la: 0.13785648,
+        j: 0.06472833,
+        b: 0.014711635,
+        kv: 0.013462758,
+    };
+    let tc = coulomb(&m);
+    // Noise seeds on which the fit without the rule called J, B and Kv pinned, 11-16 % off
+    // at 3.5-5.4 of their deviations.
+    for seed in [2, 8] {
+        let c = commission_at(20_000.0, m, seed);
+        let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
+        for (id, t) in [
+            (ParamId::J, m.j),
+            (ParamId::B, m.b),
+            (ParamId::Kv, m.kv),
+            (ParamId::Tc, tc),
+        ] {
+            let e = report.get(id.index() as u8).expect("six estimates");
+            assert!(!e.pinned(), "seed {seed} {}: {e:?} against {t}", id.name());
         }
     }
 }

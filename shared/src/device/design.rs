@@ -18,13 +18,15 @@
 //! with V₀ at least a quarter of the ramp's break-away ([`BREAKAWAY_CREDIT`]), and when the
 //! probe's step at V₁ settled with current i₁ (where Kv i₁ = B ω₁ + tc), ω ≤ (V - Ra i₁) /
 //! Kv for V ≥ V₁. The voltage is the largest these bounds keep under ω_max, divided by the
-//! step's overshoot. A motor whose break-away voltage lies above it is refused. (Without
+//! step's overshoot, or the probe step's own V₁ when its rise bounds the records' speed
+//! under ω_max ([`by_rise`]: a heavy shaft whose step never settles). A motor whose break-away voltage lies above it is refused. (Without
 //! the friction's credit, a motor whose friction takes most of the voltage the speed bound
 //! allows was driven below its break-away: commissioning benchmark, 18 motors refused as
 //! too fast that now commission, and a fit 20 times off at 40 deviations that is gone,
 //! `docs/measurements/commissioning.md`.)
 
-use crate::device::probe::{Probed, KV_FLOOR, QUIET_BUDGET, SPEED_SHARE};
+use crate::device::experiment::coast_start;
+use crate::device::probe::{Mechanical, Probed, KV_FLOOR, QUIET_BUDGET, SPEED_SHARE};
 use crate::wire::limits::Limits;
 use crate::wire::protocol::Refusal;
 
@@ -118,18 +120,6 @@ pub fn design(
     .max(BREAKAWAY_CREDIT * floor);
     let by_speed =
         mechanical.kv * SPEED_SHARE * limits.speed / mechanical.overshoot + friction_drop;
-    let volts = limits.voltage.min(by_current).min(by_speed);
-    // The ramp reads the break-away late on a heavy shaft (it must gather speed to be seen):
-    // only a voltage under half of it is surely below the true break-away.
-    if volts <= 0.5 * floor {
-        // With Kv not measured, the speed bound is the resistive drop alone: a refusal for
-        // speed would name the wrong cause.
-        return Err(match (by_speed <= by_current, mechanical.kv <= KV_FLOOR) {
-            (true, true) => Refusal::NoBackEmf,
-            (true, false) => Refusal::TooFast,
-            (false, _) => Refusal::NoMotion,
-        });
-    }
     let fast_samples = FAST_SAMPLES.min(capacity / 4);
     let fast_span =
         (electrical.tau_e / FAST_STEP * fast_samples as f32).min(FAST_BUDGET * limits.budget);
@@ -148,11 +138,44 @@ pub fn design(
         1 => ((slow_span / dt) as usize).clamp(16, slow_capacity),
         _ => slow_capacity,
     };
-    Ok(Design {
-        volts,
-        slow: RecordPlan { step, samples },
-        fast,
-    })
+    let slow = RecordPlan { step, samples };
+    // The probe's step as a bound of its own: no voltage above its drove the shaft faster
+    // than its top speed by its end (see [`by_rise`]).
+    let driven =
+        (coast_start(slow.samples) as u32 * slow.step + fast.drive_samples() / 2) as f32 * dt;
+    let by_speed = by_speed.max(by_rise(limits, mechanical, driven));
+    let volts = limits.voltage.min(by_current).min(by_speed);
+    // The ramp reads the break-away late on a heavy shaft (it must gather speed to be seen):
+    // only a voltage under half of it is surely below the true break-away.
+    if volts <= 0.5 * floor {
+        // With Kv not measured, the speed bound is the resistive drop alone: a refusal for
+        // speed would name the wrong cause.
+        return Err(match (by_speed <= by_current, mechanical.kv <= KV_FLOOR) {
+            (true, true) => Refusal::NoBackEmf,
+            (true, false) => Refusal::TooFast,
+            (false, _) => Refusal::NoMotion,
+        });
+    }
+    Ok(Design { volts, slow, fast })
+}
+
+/// The voltage of the probe's mechanical step when its rise bounds the records' speed under
+/// the speed bound's share of the limit, else 0; `driven` is the time the records drive the
+/// shaft [s]. From rest under a held voltage the speed rises concavely (paper Eq. 4 with
+/// the current settled: dω/dt = (Kv i − B ω − tc) / J falls as ω grows), so a step that
+/// reached `top` in `seconds` reaches at most `top · T / seconds` in T ≥ `seconds`, and no
+/// lower voltage more. A record may start before the shaft has stopped (its wait is
+/// bounded), from at most `top`: the records stay under `top · (1 + driven / seconds)`.
+/// This bounds a heavy viscous shaft, whose step never settles, by what it did rather than
+/// by V / Kv: such a motor was driven under its break-away, its shaft stood through the
+/// records, and its J and tc came out 18 times too large at 50 deviations
+/// (docs/measurements/commissioning.md).
+fn by_rise(limits: &Limits, mechanical: &Mechanical, driven: f32) -> f32 {
+    let bound = mechanical.top * (1.0 + driven / mechanical.seconds.max(f32::MIN_POSITIVE));
+    match bound <= SPEED_SHARE * limits.speed {
+        true => mechanical.volts,
+        false => 0.0,
+    }
 }
 
 #[cfg(test)]
@@ -184,6 +207,9 @@ mod tests {
                 current: 0.0,
                 back_emf_current: 1.0,
                 settled: true,
+                volts: 10.0,
+                top: 300.0,
+                seconds: 1.0,
             },
             seconds: 3.0,
         }
@@ -208,6 +234,30 @@ mod tests {
                 "{tau_m}: {slow_span} s"
             );
         }
+    }
+
+    #[test]
+    fn an_unsettled_step_bounds_the_records_by_its_own_rise() {
+        let limits = Limits::DEFAULT;
+        // A heavy viscous shaft: the step at 50 V reached 18 rad/s in 15 s, still rising.
+        // V / Kv alone allows 0.0155 x 350 = 5.4 V; the records, driven for about 45 s,
+        // stay under 18 x (1 + 45 / 15) = 72 rad/s at 50 V.
+        let mut p = probe(9.94, 0.17, 0.0155, 30.0);
+        p.ramp.breakaway = None;
+        p.mechanical = Mechanical {
+            settled: false,
+            volts: 50.0,
+            top: 18.0,
+            seconds: 15.0,
+            ..p.mechanical
+        };
+        let d = design(&limits, DT, 2000, &p).unwrap();
+        assert_eq!(d.volts, 50.0);
+        // The same step having reached 150 rad/s: 150 x (1 + 45 / 15) passes 350 rad/s,
+        // and V / Kv bounds the voltage again.
+        p.mechanical.top = 150.0;
+        let d = design(&limits, DT, 2000, &p).unwrap();
+        assert!((d.volts - 0.0155 * 350.0).abs() < 1e-3, "{}", d.volts);
     }
 
     #[test]

@@ -346,6 +346,12 @@ pub struct Mechanical {
     pub back_emf_current: f32,
     /// The speed settled.
     pub settled: bool,
+    /// The step's voltage [V].
+    pub volts: f32,
+    /// The highest speed the step reached [rad/s].
+    pub top: f32,
+    /// The step's duration [s].
+    pub seconds: f32,
 }
 
 /// Stage 4: a voltage step at the largest voltage the current limit allows
@@ -431,6 +437,9 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
             current: i_end,
             back_emf_current: (back_emf / ra).max(0.0),
             settled,
+            volts: v,
+            top,
+            seconds: t,
         });
     }
     Err(JobEnd::Refused(Refusal::Trip))

@@ -14,6 +14,7 @@ use crate::fit::profile_check;
 use crate::fit::progress::push_trace;
 pub use crate::fit::progress::{Progress, Stage, TracePoint};
 use crate::fit::refine::levenberg_marquardt;
+use crate::fit::scale_resolution;
 use crate::fit::space::{ProblemSpec, Space};
 use crate::model::params::ModelParams;
 use crate::model::record::Record;
@@ -127,6 +128,11 @@ pub fn identify_from(
             r.completed &= checked;
             r.analysis_evaluations = r.identifiability.evaluations;
         }
+    }
+    // An ADC's readings: a scale of J, B, Kv and friction under the current reading's
+    // resolution is not pinned, whatever the local analysis says.
+    if let (true, Ok(r), Some(sigma)) = (cfg.adc_readings, &mut result, objective.sigma_current()) {
+        scale_resolution::unpin_scale(&mut r.identifiability, records, &r.params, sigma);
     }
     result
 }

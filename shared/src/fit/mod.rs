@@ -16,6 +16,7 @@ pub mod pipeline;
 pub mod profile_check;
 pub mod progress;
 pub mod refine;
+pub mod scale_resolution;
 pub mod score_blocks;
 pub mod space;
 pub mod sums;
