@@ -145,6 +145,9 @@ pub struct Simulator {
     omega: Compensated,
     /// Ripple angle `ripple_cycles * theta`, wrapped to [-pi, pi].
     psi: f32,
+    /// `psi` integrates the measured speed, ripple included ([`Simulator::apply`]): the
+    /// rotor's angle is [`tacho_ripple::rotor_angle`] of it.
+    psi_from_reading: bool,
     /// Cogging angle `cog_cycles * theta`, wrapped to [-pi, pi] (host builds only: a board's
     /// simulator holds no cogging, and is copied too often to carry the slot).
     cogging_psi: [f32; HOST_SLOT],
@@ -207,6 +210,7 @@ impl Simulator {
             current: Compensated::new(0.0),
             omega: Compensated::new(0.0),
             psi: 0.0,
+            psi_from_reading: false,
             cogging_psi: [0.0; HOST_SLOT],
             winding_rise: [Compensated::new(0.0); HOST_SLOT],
             // (`from_fn`: a board's empty slot calls nothing.)
@@ -228,6 +232,7 @@ impl Simulator {
         self.current = Compensated::new(init.current);
         self.omega = Compensated::new(init.omega);
         self.psi = 0.0;
+        self.psi_from_reading = false;
         self.cogging_psi = [0.0; HOST_SLOT];
         // Each record begins cold (`winding_heating`).
         self.winding_rise = [Compensated::new(0.0); HOST_SLOT];
@@ -264,7 +269,11 @@ impl Simulator {
             self.effect(ParamId::RippleAmp),
             self.effect(ParamId::RipplePhase),
         );
-        tacho_ripple::reading(amp, phase, self.omega.hi, self.psi)
+        let psi = match FULL && self.psi_from_reading && amp != 0.0 {
+            true => tacho_ripple::rotor_angle(amp, phase, self.psi),
+            false => self.psi,
+        };
+        tacho_ripple::reading(amp, phase, self.omega.hi, psi)
     }
 
     #[inline(always)]

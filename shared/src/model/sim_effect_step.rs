@@ -142,6 +142,7 @@ impl Simulator {
         self.heat_winding_over_the_step(i0);
         if self.tracks_angle() {
             let rate = measured_omega.unwrap_or(0.5 * (w0 + self.omega.hi));
+            self.psi_from_reading |= measured_omega.is_some();
             let cycles = self.effect(ParamId::RippleCycles);
             self.psi = tacho_ripple::advance(self.psi, cycles, rate, self.dt);
             let cogging = self.effect(ParamId::CogCycles);

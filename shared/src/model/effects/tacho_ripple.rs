@@ -69,9 +69,53 @@ pub fn reading(amp: f32, phase: f32, w: f32, psi: f32) -> f32 {
     }
 }
 
+/// The ripple angle `cycles theta` of the rotor when `read` is the integral of the tacho's
+/// own readings (from 0 at the record's start, where the rotor's is 0 too). The rotor turns
+/// at the true speed `w`; the reading `w (1 + amp sin(psi + phase))` integrates to
+/// `psi - amp cos(psi + phase) + amp cos(phase)`, which this inverts to first order (what
+/// is left: `amp^2`). Without it the angle wobbled by the ripple's share and a fit of the
+/// ripple left that share of it in the residual: on the blind checks' 2 kHz records, where a
+/// 2-5 % ripple dwarfs the tacho's noise, the fit stayed above the noise floor.
+#[inline(always)]
+pub fn rotor_angle(amp: f32, phase: f32, read: f32) -> f32 {
+    read + amp * (libm::cosf(read + phase) - libm::cosf(phase))
+}
+
 /// The ripple angle after a step of `dt` at mean speed `rate`, wrapped to [-pi, pi] so
 /// that f32 sin stays accurate on long records.
 #[inline(always)]
 pub fn advance(psi: f32, cycles: f32, rate: f32, dt: f32) -> f32 {
     libm::remainderf(psi + cycles * rate * dt, core::f32::consts::TAU)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_rotor_angle_is_recovered_from_the_integral_of_a_rippled_reading() {
+        // A shaft speeding up as 5 + 20 t rad/s for 4 s, read with a 5 % ripple at 16 per
+        // revolution (phase 1 rad): the integral of the readings (trapezoid, 10 kHz) wobbles
+        // about the rotor's ripple angle 16 (5 t + 10 t^2) by up to the ripple's share.
+        let (amp, cycles, phase, dt) = (0.05f64, 16.0f64, 1.0f64, 1e-4f64);
+        let truth = |t: f64| cycles * (5.0 * t + 10.0 * t * t);
+        let read = |t: f64| (5.0 + 20.0 * t) * (1.0 + amp * (truth(t) + phase).sin());
+        let (mut integral, mut worst_read, mut worst_rotor) = (0.0f64, 0.0f64, 0.0f64);
+        for k in 1..40_000 {
+            let (t0, t1) = ((k - 1) as f64 * dt, k as f64 * dt);
+            integral += cycles * 0.5 * (read(t0) + read(t1)) * dt;
+            let psi = truth(t1);
+            // The distance of angle `x` from the rotor's, in [0, pi].
+            let off = |x: f64| {
+                let d = (x - psi).rem_euclid(core::f64::consts::TAU);
+                d.min(core::f64::consts::TAU - d)
+            };
+            worst_read = worst_read.max(off(integral));
+            let read = integral.rem_euclid(core::f64::consts::TAU) as f32;
+            let rotor = rotor_angle(amp as f32, phase as f32, read) as f64;
+            worst_rotor = worst_rotor.max(off(rotor));
+        }
+        assert!(worst_read > 0.05, "{worst_read}");
+        assert!(worst_rotor < 0.01, "{worst_rotor}");
+    }
 }
