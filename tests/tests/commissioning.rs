@@ -48,24 +48,47 @@ fn commission_at(rate: f64, m: Motor, seed: u64) -> Commissioning {
     commission(plant, Limits::DEFAULT, 1, None, &mut |_| {})
 }
 
-/// All six of `report` pinned and within 3 % of motor `m` with Coulomb friction `tc`.
-fn assert_six_within_3_percent(report: &MotorReport, m: &Motor, tc: f64, plan: &Option<Plan>) {
-    let truth = [
-        (ParamId::Ra, m.ra),
-        (ParamId::La, m.la),
+/// The truths of J, B, Kv and tc of motor `m` with Coulomb friction `tc`: the scale that
+/// the speed gives only relative to Kv.
+fn scale_truth(m: &Motor, tc: f64) -> [(ParamId, f64); 4] {
+    [
         (ParamId::J, m.j),
         (ParamId::B, m.b),
         (ParamId::Kv, m.kv),
         (ParamId::Tc, tc),
-    ];
-    for (id, t) in truth {
+    ]
+}
+
+/// Each parameter of `truth` pinned in `report` and within 3 % of its truth (`context` in
+/// the message).
+fn assert_report_within_3_percent(report: &MotorReport, truth: &[(ParamId, f64)], context: &str) {
+    for &(id, t) in truth {
         let e = report.get(id.index() as u8).expect("six estimates");
         assert!(
             e.pinned() && (e.value as f64 / t - 1.0).abs() < 0.03,
-            "{m:?} {}: {e:?} vs {t}, plan {plan:?}",
-            id.name(),
+            "{context} {}: {e:?} vs {t}",
+            id.name()
         );
     }
+}
+
+/// Each parameter of `truth` pinned in `report` and within 3 of its reported deviations.
+fn assert_report_within_3_sigma(report: &MotorReport, truth: &[(ParamId, f64)], context: &str) {
+    for &(id, t) in truth {
+        let e = report.get(id.index() as u8).expect("six estimates");
+        assert!(
+            e.pinned() && (e.value as f64 - t).abs() <= 3.0 * e.std as f64,
+            "{context} {}: {e:?} against {t}",
+            id.name()
+        );
+    }
+}
+
+/// All six of `report` pinned and within 3 % of motor `m` with Coulomb friction `tc`.
+fn assert_six_within_3_percent(report: &MotorReport, m: &Motor, tc: f64, plan: &Option<Plan>) {
+    let mut truth = vec![(ParamId::Ra, m.ra), (ParamId::La, m.la)];
+    truth.extend(scale_truth(m, tc));
+    assert_report_within_3_percent(report, &truth, &format!("{m:?}, plan {plan:?}:"));
 }
 
 #[test]
@@ -161,14 +184,7 @@ fn a_long_electrical_time_constant_is_waited_for_on_the_reference_plant() {
     let report = c.result.unwrap_or_else(|e| panic!("{e:?}, plan {plan:?}"));
     // Viscous loss 30 times the back-EMF's share (not motor-like): Ra and La, which the
     // fast record pins, within 3 %.
-    for (id, t) in [(ParamId::Ra, m.ra), (ParamId::La, m.la)] {
-        let e = report.get(id.index() as u8).expect("estimate");
-        assert!(
-            e.pinned() && (e.value as f64 / t - 1.0).abs() < 0.03,
-            "{}: {e:?} vs {t}",
-            id.name()
-        );
-    }
+    assert_report_within_3_percent(&report, &[(ParamId::Ra, m.ra), (ParamId::La, m.la)], "");
     // Viscous loss above back-EMF (Kv^2 < Ra B / 4) and La/Ra of 2.7 s: the probe's V - Ra i
     // is lost in its Ra's error, so V / Kv bounds nothing. Its step's own rise does
     // (design::by_rise: refused as `NoBackEmf` before it): commissioned at the step's
@@ -302,19 +318,7 @@ fn a_viscous_dominated_motor_s_deviations_cover_its_curved_valley_on_the_referen
     for seed in 1..=2 {
         let c = commission_at(20_000.0, m, seed);
         let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
-        for (id, t) in [
-            (ParamId::J, m.j),
-            (ParamId::B, m.b),
-            (ParamId::Kv, m.kv),
-            (ParamId::Tc, tc),
-        ] {
-            let e = report.get(id.index() as u8).expect("six estimates");
-            assert!(
-                e.pinned() && (e.value as f64 - t).abs() <= 3.0 * e.std as f64,
-                "seed {seed} {}: {e:?} against {t}",
-                id.name()
-            );
-        }
+        assert_report_within_3_sigma(&report, &scale_truth(&m, tc), &format!("seed {seed}"));
     }
 }
 
@@ -343,14 +347,8 @@ fn a_motor_whose_friction_takes_most_of_its_voltage_is_driven_above_its_break_aw
             plan.volts
         );
         let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
-        for (id, t) in [(ParamId::J, m.j), (ParamId::B, m.b), (ParamId::Tc, tc)] {
-            let e = report.get(id.index() as u8).expect("six estimates");
-            assert!(
-                e.pinned() && (e.value as f64 / t - 1.0).abs() <= 0.03,
-                "seed {seed} {}: {e:?} against {t}",
-                id.name()
-            );
-        }
+        let truth = [(ParamId::J, m.j), (ParamId::B, m.b), (ParamId::Tc, tc)];
+        assert_report_within_3_percent(&report, &truth, &format!("seed {seed}"));
     }
 }
 
@@ -380,19 +378,7 @@ fn a_heavy_viscous_shaft_whose_step_never_settles_is_driven_above_its_break_away
             plan.volts
         );
         let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
-        for (id, t) in [
-            (ParamId::J, m.j),
-            (ParamId::B, m.b),
-            (ParamId::Kv, m.kv),
-            (ParamId::Tc, tc),
-        ] {
-            let e = report.get(id.index() as u8).expect("six estimates");
-            assert!(
-                e.pinned() && (e.value as f64 - t).abs() <= 3.0 * e.std as f64,
-                "seed {seed} {}: {e:?} against {t}",
-                id.name()
-            );
-        }
+        assert_report_within_3_sigma(&report, &scale_truth(&m, tc), &format!("seed {seed}"));
     }
 }
 
@@ -416,12 +402,7 @@ fn a_scale_whose_back_emf_lies_under_half_a_count_is_not_pinned() {
     for seed in [2, 8] {
         let c = commission_at(20_000.0, m, seed);
         let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
-        for (id, t) in [
-            (ParamId::J, m.j),
-            (ParamId::B, m.b),
-            (ParamId::Kv, m.kv),
-            (ParamId::Tc, tc),
-        ] {
+        for (id, t) in scale_truth(&m, tc) {
             let e = report.get(id.index() as u8).expect("six estimates");
             assert!(!e.pinned(), "seed {seed} {}: {e:?} against {t}", id.name());
         }

@@ -6,6 +6,7 @@
 //! [`crate::capacity`] and [`crate::rng`]; it may not use the fit, the wire format or the
 //! board application.
 
+pub(crate) mod compensated;
 pub mod discretise;
 pub mod effects;
 pub mod noise;

@@ -16,6 +16,7 @@
 
 use crate::capacity::{FULL, SIM_EFFECT_PARAMS};
 use crate::error::Error;
+use crate::model::compensated::Compensated;
 use crate::model::discretise::Discrete;
 use crate::model::effects::friction::FrictionLaw;
 use crate::model::effects::{
@@ -29,32 +30,6 @@ use crate::capacity::MAX_DELAY_SAMPLES;
 const RING: usize = MAX_DELAY_SAMPLES + 2;
 // Ring positions are bytes (a Simulator is copied a dozen times into every Jacobian).
 const _: () = assert!(RING <= u8::MAX as usize);
-
-/// Compensated f32 accumulator: `hi + lo` carries about twice the precision of one f32.
-#[derive(Clone, Copy, Debug, Default)]
-struct Compensated {
-    hi: f32,
-    lo: f32,
-}
-
-impl Compensated {
-    fn new(v: f32) -> Self {
-        Compensated { hi: v, lo: 0.0 }
-    }
-    /// Knuth's two-sum; exact because Rust never fuses or reassociates f32 operations.
-    fn add(&mut self, d: f32) {
-        let y = d + self.lo;
-        let s = self.hi + y;
-        let bp = s - self.hi;
-        let err = (self.hi - (s - bp)) + (y - bp);
-        self.hi = s;
-        self.lo = err;
-    }
-    fn set(&mut self, v: f32) {
-        self.hi = v;
-        self.lo = 0.0;
-    }
-}
 
 /// What drives a simulation over one step of a record.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -6,8 +6,9 @@
 //! friction as dead zones, whose stuck state is frozen while the other advances with its
 //! own exact first-order step (see the module doc of [`super`]).
 
-use super::{sign, Compensated, Simulator};
+use super::{sign, Simulator};
 use crate::capacity::FULL;
+use crate::model::compensated::Compensated;
 use crate::model::effects::{
     brush_drop, quadratic_load, tacho_ripple, winding_heating, Held, Role, StepState, ROLES,
     SWITCHES,

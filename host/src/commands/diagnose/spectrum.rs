@@ -201,39 +201,41 @@ pub fn without_ripple(trace: &Trace, order: u32) -> Vec<f32> {
     let n = order as f64;
     let measured = |k: usize| (trace.omega[k] + trace.residual[k]) as f64;
     let read: Vec<f64> = angles(trace.omega.len(), trace.dt, measured).collect();
-    let first = window_fits(trace, n, &read);
-    let rotor: Vec<f64> = read
-        .iter()
+    let read_sin_cos = sin_cos_of(n, &read);
+    let first = window_fits(trace, &read_sin_cos);
+    let rotor: Vec<f64> = (read.iter().zip(&read_sin_cos))
         .enumerate()
-        .map(|(k, &theta)| {
+        .map(|(k, (&theta, &(s, c)))| {
             let (a, b) = first[k / RIPPLE_WINDOW];
-            let (s, c) = (n * theta).sin_cos();
             theta + (a * c - b * s) / n
         })
         .collect();
-    let second = window_fits(trace, n, &rotor);
-    (trace.residual.iter().zip(&trace.omega).zip(&rotor))
+    let rotor_sin_cos = sin_cos_of(n, &rotor);
+    let second = window_fits(trace, &rotor_sin_cos);
+    (trace.residual.iter().zip(&trace.omega).zip(&rotor_sin_cos))
         .enumerate()
-        .map(|(k, ((&r, &w), &theta))| {
+        .map(|(k, ((&r, &w), &(s, c)))| {
             let (a, b) = second[k / RIPPLE_WINDOW];
-            let (s, c) = (n * theta).sin_cos();
             (r as f64 - w as f64 * (a * s + b * c)) as f32 + w
         })
         .collect()
 }
 
+/// `(sin, cos)` of `order` times each angle of `theta`.
+fn sin_cos_of(order: f64, theta: &[f64]) -> Vec<(f64, f64)> {
+    theta.iter().map(|t| (order * t).sin_cos()).collect()
+}
+
 /// The ripple's coefficients `(a, b)` of [`without_ripple`] fitted to `trace`'s residual
-/// in each window of [`RIPPLE_WINDOW`] samples, at `order` times the angle `theta`
-/// ((0, 0) where the window does not turn).
-fn window_fits(trace: &Trace, order: f64, theta: &[f64]) -> Vec<(f64, f64)> {
-    (theta.chunks(RIPPLE_WINDOW))
+/// in each window of [`RIPPLE_WINDOW`] samples, `sin_cos` those of the ripple's angle at
+/// each sample ((0, 0) where the window does not turn).
+fn window_fits(trace: &Trace, sin_cos: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    (sin_cos.chunks(RIPPLE_WINDOW))
         .zip(trace.omega.chunks(RIPPLE_WINDOW))
         .zip(trace.residual.chunks(RIPPLE_WINDOW))
-        .map(|((theta, omega), residual)| {
-            let points = (theta.iter().zip(omega).zip(residual)).map(|((&t, &w), &r)| {
-                let (s, c) = (order * t).sin_cos();
-                ((w as f64 * s, w as f64 * c), r as f64)
-            });
+        .map(|((sin_cos, omega), residual)| {
+            let points = (sin_cos.iter().zip(omega).zip(residual))
+                .map(|((&(s, c), &w), &r)| ((w as f64 * s, w as f64 * c), r as f64));
             fit_sin_cos(points).map_or((0.0, 0.0), |f| (f.a, f.b))
         })
         .collect()
