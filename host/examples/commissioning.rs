@@ -10,7 +10,7 @@
 
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
-use motor_id_shared::device::unpinned::why_not_pinned;
+use motor_id_shared::device::unpinned::{why_not_pinned, Unpinned};
 use motor_id_shared::device::virtual_board::{commission, BoardRecord};
 use motor_id_shared::fit::objective::Objective;
 use motor_id_shared::model::record::Record;
@@ -116,7 +116,22 @@ fn main() {
             if let (false, Some(plan)) = (e.pinned(), &c.plan) {
                 let why = why_not_pinned(id, &report, plan, current_count);
                 let kind = format!("{why:?}");
-                let kind = kind.split([' ', '{']).next().unwrap_or("").to_string();
+                let mut kind = kind.split([' ', '{']).next().unwrap_or("").to_string();
+                if let Unpinned::BackEmfBelowResolution {
+                    whole_scale: false, ..
+                } = why
+                {
+                    kind.push_str(" (part of the scale)");
+                }
+                if verbose && why == Unpinned::NotSeparated {
+                    eprintln!(
+                        "motor {}: {} not separated: ra {ra} la {la} j {j} b {b} kv {kv} tc {tc} tau_m {tau_m}\n  plan {:?}\n  {:?}",
+                        m + 1,
+                        id.name(),
+                        c.plan,
+                        report.estimates
+                    );
+                }
                 *unpinned.entry(format!("{} {kind}", id.name())).or_default() += 1;
             }
             if e.pinned() {

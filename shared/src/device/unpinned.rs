@@ -61,12 +61,18 @@ pub enum Unpinned {
     /// and friction relative to Kv (paper Eq. 4 divided by Kv); Kv itself shows only in
     /// the back-EMF term of the current (paper Eq. 1), so all four scale together; Ra and
     /// La, which share Eq. 1 with the back-EMF, lean on that scale too and are unpinned with
-    /// it (their estimates may still lie close).
+    /// it (their estimates may still lie close). With `whole_scale` false, only part of
+    /// J, B, Kv and friction is unpinned: the valley along that scale bends (the block
+    /// scores and the profile check follow it), and the parameter is the one it takes along
+    /// where the others came out pinned (in the commissioning benchmark, viscous-dominated
+    /// motors whose back-EMF took 1-8 counts at the top speed).
     BackEmfBelowResolution {
         /// Current the back-EMF took away at the probe's speed [A].
         current: f32,
         /// One count of the current reading [A].
         count: f32,
+        /// J, B, Kv and friction (when fitted) are all unpinned.
+        whole_scale: bool,
     },
     /// None of the above: the records do not separate it from the other parameters.
     NotSeparated,
@@ -100,10 +106,12 @@ pub fn why_not_pinned(
         .all(|p| unpinned(*p) == Some(true))
         && unpinned(ParamId::Tc) != Some(false);
     let motor = mechanical || matches!(param, ParamId::Ra | ParamId::La);
-    if motor && scale_unpinned && plan.back_emf_current < BACK_EMF_COUNTS * current_count {
+    let back_emf_within_counts = plan.back_emf_current < BACK_EMF_COUNTS * current_count;
+    if motor && scale_unpinned && back_emf_within_counts {
         return Unpinned::BackEmfBelowResolution {
             current: plan.back_emf_current,
             count: current_count,
+            whole_scale: true,
         };
     }
     if mechanical && covered < needed {
@@ -120,6 +128,19 @@ pub fn why_not_pinned(
         return Unpinned::BelowResolution {
             signal: signal.abs(),
             count: current_count,
+        };
+    }
+    // Part of the scale: J, B and Kv all fitted (a J held at a known value fixes the scale,
+    // the speed giving J / Kv), the slow record long enough and the parameter's own current
+    // above a count, but the back-EMF within a few counts as above.
+    let scale_fitted = [ParamId::J, ParamId::B, ParamId::Kv]
+        .iter()
+        .all(|p| unpinned(*p).is_some());
+    if mechanical && scale_fitted && back_emf_within_counts {
+        return Unpinned::BackEmfBelowResolution {
+            current: plan.back_emf_current,
+            count: current_count,
+            whole_scale: false,
         };
     }
     Unpinned::NotSeparated
@@ -140,10 +161,18 @@ impl core::fmt::Display for Unpinned {
                 f,
                 "its current ({signal:.3e} A) is below one count of the current reading ({count:.3e} A)"
             ),
-            Unpinned::BackEmfBelowResolution { current, count } => {
+            Unpinned::BackEmfBelowResolution {
+                current,
+                count,
+                whole_scale,
+            } => {
                 write!(
                     f,
-                    "the back-EMF takes only a few counts of the current reading at the probe's speed (the probe read {current:.2e} A against a count of {count:.2e} A, a rough figure): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it (Ra and La lean on that scale); raise the current or voltage limit, or read the current finer"
+                    "the back-EMF takes only a few counts of the current reading at the probe's speed (the probe read {current:.2e} A against a count of {count:.2e} A, a rough figure): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it ({}); raise the current or voltage limit, or read the current finer",
+                    match whole_scale {
+                        true => "Ra and La lean on that scale",
+                        false => "the valley along that scale bends, and takes this one along where the others came out pinned",
+                    }
                 )
             }
             Unpinned::NotSeparated => {
@@ -239,7 +268,8 @@ mod tests {
                 why,
                 Unpinned::BackEmfBelowResolution {
                     current: 0.05,
-                    count: 0.0234
+                    count: 0.0234,
+                    whole_scale: true,
                 },
                 "{id:?}"
             );
@@ -263,8 +293,15 @@ mod tests {
             why_not_pinned(ParamId::J, &r, &short, 0.0234),
             Unpinned::BackEmfBelowResolution { .. }
         ));
-        // Not with J not in the report, nor with tc pinned (it fixes the scale: the speed
-        // gives tc / Kv), nor with Kv pinned, nor with a back-EMF of many counts.
+        // Not the whole scale with tc pinned (it fixes the scale: the speed gives tc / Kv),
+        // nor with Kv pinned: part of it, the valley bending. Not at all with J not in the
+        // report (held at a known value, it fixes the scale), nor with a back-EMF of many
+        // counts, nor where the slow record fell short of the time scale.
+        let part = Unpinned::BackEmfBelowResolution {
+            current: 0.05,
+            count: 0.0234,
+            whole_scale: false,
+        };
         let mut no_j = r.clone();
         no_j.estimates
             .retain(|e| e.param != ParamId::J.index() as u8);
@@ -274,16 +311,20 @@ mod tests {
         );
         let mut tc_pinned = r.clone();
         tc_pinned.estimates[2].std = 1e-3;
-        assert_eq!(
-            why_not_pinned(ParamId::B, &tc_pinned, &p, 0.0234),
-            Unpinned::NotSeparated
-        );
+        assert_eq!(why_not_pinned(ParamId::B, &tc_pinned, &p, 0.0234), part);
         let mut kv_pinned = r.clone();
         kv_pinned.estimates[0].std = 1e-3;
+        assert_eq!(why_not_pinned(ParamId::B, &kv_pinned, &p, 0.0234), part);
+        assert_eq!(why_not_pinned(ParamId::Tc, &kv_pinned, &p, 0.0234), part);
+        // Ra beside part of the scale: not put down to it.
         assert_eq!(
-            why_not_pinned(ParamId::B, &kv_pinned, &p, 0.0234),
+            why_not_pinned(ParamId::Ra, &kv_pinned, &p, 0.0234),
             Unpinned::NotSeparated
         );
+        assert!(matches!(
+            why_not_pinned(ParamId::B, &kv_pinned, &short, 0.0234),
+            Unpinned::TimeScale { .. }
+        ));
         p.back_emf_current = 0.5;
         assert_eq!(
             why_not_pinned(ParamId::B, &r, &p, 0.0234),
