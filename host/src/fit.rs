@@ -100,6 +100,20 @@ pub fn fit_quick(records: &[OwnedRecord], opts: &FitOptions) -> Result<Fit> {
     run_fit(records, opts, &spec, &cfg, None)
 }
 
+/// Identify `spec` from loaded records with the default pipeline without its escalation:
+/// the fit [`fit_spec`]'s escalation starts from (the same result where it does not move it).
+pub fn fit_spec_unwidened(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+) -> Result<Fit> {
+    let cfg = IdentifyConfig {
+        escalation: Escalation::None,
+        ..IdentifyConfig::default_pipeline(opts.seed)
+    };
+    run_fit(records, opts, spec, &cfg, None)
+}
+
 /// Identify `spec` from loaded records with the default pipeline and its escalation.
 pub fn fit_spec(records: &[OwnedRecord], opts: &FitOptions, spec: &ProblemSpec) -> Result<Fit> {
     run_fit(
@@ -111,21 +125,17 @@ pub fn fit_spec(records: &[OwnedRecord], opts: &FitOptions, spec: &ProblemSpec) 
     )
 }
 
-/// Identify `spec` from loaded records with the default pipeline from `initial`, without
-/// its escalation: for the diagnosis' fits of an effect added to a model fitted already
-/// (whose misfit the diagnosis judges, not a stuck search's); its uncertainties are the
-/// local (delta-method) ones, without the profile check.
-pub fn fit_from(
+/// Search the basin of `spec`'s few free parameters from `initial`
+/// ([`IdentifyConfig::basin`]): the diagnosis' first stage of an effect added to a model
+/// fitted already, before everything is refitted from there ([`refit_from`]); its
+/// uncertainties are the local (delta-method) ones, without the profile check.
+pub fn fit_basin_from(
     records: &[OwnedRecord],
     opts: &FitOptions,
     spec: &ProblemSpec,
     initial: &ModelParams,
 ) -> Result<Fit> {
-    let cfg = IdentifyConfig {
-        escalation: Escalation::None,
-        profile_check: false,
-        ..IdentifyConfig::default_pipeline(opts.seed)
-    };
+    let cfg = IdentifyConfig::basin(opts.seed);
     run_fit(records, opts, spec, &cfg, Some(initial))
 }
 

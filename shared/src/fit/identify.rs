@@ -263,7 +263,7 @@ fn conclude(
 
 /// A fit this many times better than the one before a wider search counts as a gain; less,
 /// and the wider search agrees that the misfit is the model's.
-const WIDER_GAIN: f32 = 0.99;
+pub const WIDER_GAIN: f32 = 0.99;
 
 /// State of one identification run: the best point so far, the trace and the counters.
 struct Run<'o, 'r, 'a, P> {

@@ -5,7 +5,7 @@
 use super::data::Data;
 use super::data::Trace;
 use super::spectrum::{order_fit, order_peak, OrderPeak, Shape};
-use crate::fit::{fit_from, refit_from, Fit, FitOptions};
+use crate::fit::{fit_basin_from, refit_from, Fit, FitOptions};
 use anyhow::{anyhow, Result};
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
@@ -87,10 +87,10 @@ pub fn with_effect(
 }
 
 /// Fit `spec` (an effect added to the model in `spec.base`) in two stages: the effect's
-/// parameters alone with everything else held at `base` (a global search of one to three
-/// dimensions, started for the ripple and for cogging from the order spectrum's amplitude
-/// and phase), then everything free from there by least squares (the start lies in the
-/// basin already).
+/// parameters alone with everything else held at `base` (a short global search of one to
+/// three dimensions for the basin, [`fit_basin_from`], started for the ripple and for
+/// cogging from the order spectrum's amplitude and phase), then everything free from there
+/// by least squares (the start lies in the basin already).
 pub fn fit_effect(
     data: &Data,
     opts: &FitOptions,
@@ -125,6 +125,6 @@ pub fn fit_effect(
             alone.free[id.index()] = false;
         }
     }
-    let first = fit_from(&data.train, opts, &alone, &start)?;
+    let first = fit_basin_from(&data.train, opts, &alone, &start)?;
     refit_from(&data.train, opts, spec, &first.result.params)
 }

@@ -13,8 +13,10 @@ mod coverage;
 mod data;
 mod drift;
 mod effect_fit;
+mod first_round;
 mod found;
 mod naming;
+mod parallel;
 mod plot;
 mod regime_shares;
 mod regimes;
@@ -23,6 +25,7 @@ mod repeatability;
 mod report;
 mod report_text;
 mod search;
+mod search_context;
 mod spectrum;
 mod verdict;
 

@@ -8,104 +8,15 @@
 //! final model without it.
 
 use super::data::{Data, Scored};
-use super::effect_fit::{fit_effect, with_effect, Peaks};
+use super::effect_fit::with_effect;
+use super::first_round::{baseline_and_first_round, FirstRound};
 use super::found::{Search, StandingIn};
-use super::regimes;
-use super::spectrum::without_ripple;
-use super::verdict::{significant, Holdout};
-use crate::fit::{fit_spec, refit_from, FitOptions};
+use super::parallel::in_parallel;
+use super::search_context::{reduced, Context};
+use super::verdict::significant;
+use crate::fit::FitOptions;
 use anyhow::Result;
-use motor_id_shared::fit::space::ProblemSpec;
-use motor_id_shared::fit::sums::pooled_sigma;
-use motor_id_shared::model::effects::{Effect, Scales};
-use motor_id_shared::ModelParams;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
-
-/// What every fit of the search shares: the records, the quiet fit options, the user's
-/// problem, the baseline's parameters and scales, and the order peaks of a ripple and of
-/// cogging.
-struct Context<'a> {
-    data: &'a Data,
-    quiet: FitOptions,
-    spec: ProblemSpec,
-    base_params: ModelParams,
-    scales: Scales,
-    peaks: Peaks,
-}
-
-impl Context<'_> {
-    /// The user's problem with every effect of `set` free (and what each extends), the
-    /// fixed values taken from `start`.
-    fn spec_of(&self, set: &[Effect], start: &ModelParams) -> Result<ProblemSpec> {
-        let mut s = self.spec;
-        s.base = *start;
-        for e in set {
-            s = with_effect(&s, *e, start, &self.scales, &self.peaks)?;
-        }
-        Ok(s)
-    }
-
-    /// `p` with `effect`'s own parameters back at the baseline's values (the effect taken
-    /// out; what it extends stays).
-    fn without(&self, p: &ModelParams, effect: Effect) -> ModelParams {
-        let mut out = *p;
-        for id in effect.params() {
-            out.set(*id, self.base_params.get(*id));
-        }
-        out
-    }
-
-    /// `p` reduced to the model of `prefix`: the parameters of every effect not in it back
-    /// at the baseline's values, those of an effect it extends too unless `prefix` holds
-    /// that effect (itself, or another that extends it).
-    fn only(&self, p: &ModelParams, prefix: &[Effect], dropped: &[Effect]) -> ModelParams {
-        dropped.iter().fold(*p, |q, e| {
-            let q = self.without(&q, *e);
-            match e.parent() {
-                Some(parent) if !holds(prefix, parent) => self.without(&q, parent),
-                _ => q,
-            }
-        })
-    }
-
-    /// `effect` added to the model `model` fitted at `at` ([`fit_effect`]), and scored.
-    fn add(&self, model: &ProblemSpec, effect: Effect, at: &ModelParams) -> Result<Scored> {
-        let s = with_effect(model, effect, at, &self.scales, &self.peaks)?;
-        self.data
-            .score(fit_effect(self.data, &self.quiet, &s, effect, &self.peaks)?)
-    }
-
-    /// The model of `set` fitted on the training records from `start`, and scored.
-    fn refit(&self, set: &[Effect], start: &ModelParams) -> Result<Scored> {
-        let spec = self.spec_of(set, start)?;
-        self.data
-            .score(refit_from(&self.data.train, &self.quiet, &spec, start)?)
-    }
-}
-
-/// Whether the model of `set` holds `effect`'s parameters: `effect` is in it, or an effect
-/// that extends it.
-fn holds(set: &[Effect], effect: Effect) -> bool {
-    set.iter()
-        .any(|e| *e == effect || e.parent() == Some(effect))
-}
-
-/// `set` less `effect`: what `effect` extends takes its place unless the rest of the set
-/// holds it already (itself, or another effect that extends it) or the user left it out
-/// (`without`: it never enters a model).
-fn reduced(set: &[Effect], effect: Effect, without: &[Effect]) -> Vec<Effect> {
-    let rest: Vec<Effect> = set.iter().copied().filter(|e| *e != effect).collect();
-    set.iter()
-        .filter_map(|e| match (*e == effect, e.parent()) {
-            (false, _) => Some(*e),
-            (true, Some(parent)) if !holds(&rest, parent) && !without.contains(&parent) => {
-                Some(parent)
-            }
-            (true, _) => None,
-        })
-        .collect()
-}
+use motor_id_shared::model::effects::Effect;
 
 /// Run the search on `data` with the user's fit options (`opts.quiet` silences the steps'
 /// messages; the fits themselves show no progress bar), the catalogue less `without`.
@@ -122,28 +33,18 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     };
     let spec = crate::spec::problem(&opts.bounds, &opts.fix)?;
     say("fitting the baseline model on the training records".into());
-    let baseline = data.score(fit_spec(&data.train, &quiet, &spec)?)?;
+    let (baseline, round) = baseline_and_first_round(data, &quiet, &spec, without, &say)?;
+    let FirstRound {
+        where_,
+        peaks,
+        holdout,
+        scales,
+        usable,
+        scored,
+        left_out_parents,
+    } = round;
+    let baseline = data.score(baseline)?;
     let base_params = baseline.fit.result.params;
-    let traces = data.traces(&base_params)?;
-    let where_ = regimes::analyse(&traces, baseline.fit.result.sigma_omega);
-    let peaks = Peaks::of(&traces, &spec);
-    let ripple = peaks.ripple;
-    // The held-out noise floor, unless a ripple at the residual's order hides it: the noise
-    // estimate reads a ripple above 0.15 cycles per sample as noise (2.7 % at 8 per
-    // revolution read 0.37 rad/s of noise for 0.2). Both are upper bounds of the noise
-    // (subtracting a ripple that is not there adds one), so the smaller is taken.
-    let cleaned: Vec<Vec<f32>> = traces
-        .iter()
-        .filter(|t| t.set == "holdout")
-        .map(|t| without_ripple(t, ripple.order))
-        .collect();
-    let holdout = Holdout {
-        noise: data
-            .holdout_noise()?
-            .min(pooled_sigma(cleaned.iter().map(Vec::as_slice))),
-        signal_rms: data.holdout_rms(),
-    };
-    let scales = data.scales(&base_params);
     let cx = Context {
         data,
         quiet: quiet.clone(),
@@ -152,38 +53,6 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         scales,
         peaks,
     };
-
-    // Which: every effect of the catalogue the records can show, refitted on the training
-    // records.
-    // (Cogging only when told its detents per revolution, above.)
-    let usable: Vec<Effect> = Effect::ALL
-        .into_iter()
-        .filter(|e| (data.with_current || !e.needs_current()) && !without.contains(e))
-        .filter(|e| *e != Effect::Cogging || peaks.detents.is_some())
-        .collect();
-    let mut scored: Vec<(Effect, Scored)> = Vec::new();
-    let fits = in_parallel(usable.len(), |k| {
-        let effect = usable[k];
-        say(format!(
-            "fitting with {} ({}/{})",
-            effect.name(),
-            k + 1,
-            usable.len()
-        ));
-        cx.add(&spec, effect, &base_params)
-    });
-    for (effect, f) in usable.iter().zip(fits) {
-        scored.push((*effect, f?));
-    }
-    scored.sort_by(|a, b| a.1.holdout_joint.total_cmp(&b.1.holdout_joint));
-    // The entries left out that a usable effect extends: fitted as the reference its own
-    // part is judged against, never named.
-    let mut left_out_parents: Vec<(Effect, Scored)> = Vec::new();
-    for p in usable.iter().filter_map(|e| e.parent()) {
-        if without.contains(&p) && left_out_parents.iter().all(|(q, _)| *q != p) {
-            left_out_parents.push((p, cx.add(&spec, p, &base_params)?));
-        }
-    }
     let mut found = Search {
         baseline,
         holdout,
@@ -346,75 +215,4 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     }
     found.chain = kept;
     Ok(found)
-}
-
-/// `f(0..n)` on the machine's cores (the fits of different effects are independent, each
-/// deterministic, so the results do not depend on the threads), in order.
-fn in_parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |c| c.get())
-        .min(n);
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<T>>> = Mutex::new((0..n).map(|_| None).collect());
-    std::thread::scope(|scope| {
-        for _ in 0..workers {
-            scope.spawn(|| loop {
-                let k = next.fetch_add(1, Ordering::Relaxed);
-                if k >= n {
-                    break;
-                }
-                let r = f(k);
-                results.lock().expect("no worker panics holding the lock")[k] = Some(r);
-            });
-        }
-    });
-    let results = results.into_inner().expect("no worker panicked");
-    results
-        .into_iter()
-        .map(|r| r.expect("every index was run"))
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_model_holds_an_effect_itself_or_through_an_extension() {
-        use Effect::{BridgeDeadtime, CoulombFriction, SensorDelay, StaticFriction};
-        // A prefix [sensor_delay] of the chain [sensor_delay, static_friction] does not hold
-        // Coulomb friction: its model refitted alone must not keep the final tc.
-        assert!(!holds(&[SensorDelay], CoulombFriction));
-        assert!(holds(&[SensorDelay, StaticFriction], CoulombFriction));
-        assert!(holds(&[CoulombFriction], CoulombFriction));
-        assert!(!holds(&[BridgeDeadtime], StaticFriction));
-    }
-
-    #[test]
-    fn an_effect_taken_out_leaves_what_it_extends_unless_already_there() {
-        use Effect::{AsymmetricFriction, BridgeDeadtime, CoulombFriction, StaticFriction};
-        assert_eq!(
-            reduced(&[BridgeDeadtime, StaticFriction], StaticFriction, &[]),
-            vec![BridgeDeadtime, CoulombFriction]
-        );
-        assert_eq!(
-            reduced(&[StaticFriction, BridgeDeadtime], BridgeDeadtime, &[]),
-            vec![StaticFriction]
-        );
-        // Both extensions of Coulomb friction: taking one out leaves the other, which
-        // holds Coulomb friction already.
-        assert_eq!(
-            reduced(&[StaticFriction, AsymmetricFriction], StaticFriction, &[]),
-            vec![AsymmetricFriction]
-        );
-        // Coulomb friction left out by the user never takes its extension's place.
-        assert_eq!(
-            reduced(
-                &[BridgeDeadtime, StaticFriction],
-                StaticFriction,
-                &[CoulombFriction]
-            ),
-            vec![BridgeDeadtime]
-        );
-    }
 }

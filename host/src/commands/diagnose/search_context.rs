@@ -1,0 +1,149 @@
+//! What every fit of the search ([`super::search`]) shares, and the sets of effects it
+//! refits: which effects a model holds, and what is left when one is taken out.
+
+use super::data::{Data, Scored};
+use super::effect_fit::{fit_effect, with_effect, Peaks};
+use crate::fit::{refit_from, FitOptions};
+use anyhow::Result;
+use motor_id_shared::fit::space::ProblemSpec;
+use motor_id_shared::model::effects::{Effect, Scales};
+use motor_id_shared::ModelParams;
+
+/// What every fit of the search shares: the records, the quiet fit options, the user's
+/// problem, the baseline's parameters and scales, and the order peaks of a ripple and of
+/// cogging.
+pub(super) struct Context<'a> {
+    pub(super) data: &'a Data,
+    pub(super) quiet: FitOptions,
+    pub(super) spec: ProblemSpec,
+    pub(super) base_params: ModelParams,
+    pub(super) scales: Scales,
+    pub(super) peaks: Peaks,
+}
+
+impl Context<'_> {
+    /// The user's problem with every effect of `set` free (and what each extends), the
+    /// fixed values taken from `start`.
+    pub(super) fn spec_of(&self, set: &[Effect], start: &ModelParams) -> Result<ProblemSpec> {
+        let mut s = self.spec;
+        s.base = *start;
+        for e in set {
+            s = with_effect(&s, *e, start, &self.scales, &self.peaks)?;
+        }
+        Ok(s)
+    }
+
+    /// `p` with `effect`'s own parameters back at the baseline's values (the effect taken
+    /// out; what it extends stays).
+    pub(super) fn without(&self, p: &ModelParams, effect: Effect) -> ModelParams {
+        let mut out = *p;
+        for id in effect.params() {
+            out.set(*id, self.base_params.get(*id));
+        }
+        out
+    }
+
+    /// `p` reduced to the model of `prefix`: the parameters of every effect not in it back
+    /// at the baseline's values, those of an effect it extends too unless `prefix` holds
+    /// that effect (itself, or another that extends it).
+    pub(super) fn only(
+        &self,
+        p: &ModelParams,
+        prefix: &[Effect],
+        dropped: &[Effect],
+    ) -> ModelParams {
+        dropped.iter().fold(*p, |q, e| {
+            let q = self.without(&q, *e);
+            match e.parent() {
+                Some(parent) if !holds(prefix, parent) => self.without(&q, parent),
+                _ => q,
+            }
+        })
+    }
+
+    /// `effect` added to the model `model` fitted at `at` ([`fit_effect`]), and scored.
+    pub(super) fn add(
+        &self,
+        model: &ProblemSpec,
+        effect: Effect,
+        at: &ModelParams,
+    ) -> Result<Scored> {
+        let s = with_effect(model, effect, at, &self.scales, &self.peaks)?;
+        self.data
+            .score(fit_effect(self.data, &self.quiet, &s, effect, &self.peaks)?)
+    }
+
+    /// The model of `set` fitted on the training records from `start`, and scored.
+    pub(super) fn refit(&self, set: &[Effect], start: &ModelParams) -> Result<Scored> {
+        let spec = self.spec_of(set, start)?;
+        self.data
+            .score(refit_from(&self.data.train, &self.quiet, &spec, start)?)
+    }
+}
+
+/// Whether the model of `set` holds `effect`'s parameters: `effect` is in it, or an effect
+/// that extends it.
+fn holds(set: &[Effect], effect: Effect) -> bool {
+    set.iter()
+        .any(|e| *e == effect || e.parent() == Some(effect))
+}
+
+/// `set` less `effect`: what `effect` extends takes its place unless the rest of the set
+/// holds it already (itself, or another effect that extends it) or the user left it out
+/// (`without`: it never enters a model).
+pub(super) fn reduced(set: &[Effect], effect: Effect, without: &[Effect]) -> Vec<Effect> {
+    let rest: Vec<Effect> = set.iter().copied().filter(|e| *e != effect).collect();
+    set.iter()
+        .filter_map(|e| match (*e == effect, e.parent()) {
+            (false, _) => Some(*e),
+            (true, Some(parent)) if !holds(&rest, parent) && !without.contains(&parent) => {
+                Some(parent)
+            }
+            (true, _) => None,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_model_holds_an_effect_itself_or_through_an_extension() {
+        use Effect::{BridgeDeadtime, CoulombFriction, SensorDelay, StaticFriction};
+        // A prefix [sensor_delay] of the chain [sensor_delay, static_friction] does not hold
+        // Coulomb friction: its model refitted alone must not keep the final tc.
+        assert!(!holds(&[SensorDelay], CoulombFriction));
+        assert!(holds(&[SensorDelay, StaticFriction], CoulombFriction));
+        assert!(holds(&[CoulombFriction], CoulombFriction));
+        assert!(!holds(&[BridgeDeadtime], StaticFriction));
+    }
+
+    #[test]
+    fn an_effect_taken_out_leaves_what_it_extends_unless_already_there() {
+        use Effect::{AsymmetricFriction, BridgeDeadtime, CoulombFriction, StaticFriction};
+        assert_eq!(
+            reduced(&[BridgeDeadtime, StaticFriction], StaticFriction, &[]),
+            vec![BridgeDeadtime, CoulombFriction]
+        );
+        assert_eq!(
+            reduced(&[StaticFriction, BridgeDeadtime], BridgeDeadtime, &[]),
+            vec![StaticFriction]
+        );
+        // Both extensions of Coulomb friction: taking one out leaves the other, which
+        // holds Coulomb friction already.
+        assert_eq!(
+            reduced(&[StaticFriction, AsymmetricFriction], StaticFriction, &[]),
+            vec![AsymmetricFriction]
+        );
+        // Coulomb friction left out by the user never takes its extension's place.
+        assert_eq!(
+            reduced(
+                &[BridgeDeadtime, StaticFriction],
+                StaticFriction,
+                &[CoulombFriction]
+            ),
+            vec![BridgeDeadtime]
+        );
+    }
+}
