@@ -53,6 +53,14 @@ pub struct Identification {
     pub widened: u32,
 }
 
+impl Identification {
+    /// Whether the fit reaches the noise floor ([`NOISE_FLOOR_FACTOR`] times the measured
+    /// speed noise): a pipeline's escalation runs no wider search from such a fit.
+    pub fn at_noise_floor(&self) -> bool {
+        self.cost.fitness() <= NOISE_FLOOR_FACTOR * self.sigma_omega
+    }
+}
+
 /// Identify the free parameters of `spec` from `records`. `progress` is called after every
 /// iteration; returning `Break` stops and returns the best result so far.
 pub fn identify(

@@ -2,7 +2,8 @@
 //! the misfit shrinks once it is modelled — judged on held-out records the fit never saw.
 //!
 //! This module holds the arguments and runs the steps: [`search`] fits the baseline and the
-//! catalogue's effects (each one added by [`effect_fit`]) on the records of [`data`] (where the baseline misfits: [`regimes`]
+//! catalogue's effects ([`first_round`] the baseline and each effect added to it, by
+//! [`effect_fit`]) on the records of [`data`] (where the baseline misfits: [`regimes`]
 //! and [`spectrum`]; whether an effect is real: [`verdict`]), [`coverage`] names the regimes
 //! only the held-out records visit, [`repeatability`] measures how far repeat runs differ
 //! (what no model can remove), [`naming`] decides whether the effects found may be named

@@ -1,5 +1,5 @@
-//! The search over the catalogue: the baseline fitted on the training records, every effect
-//! added to it and refitted, the first that passes the significance rule, then effects added
+//! The search over the catalogue: the baseline and every effect added to it
+//! ([`super::first_round`]), the first that passes the significance rule, then effects added
 //! one at a time on top of the model so far, each only when it passes the rule against that
 //! model, until none does (no fixed limit: forward selection). Then backward elimination:
 //! each named effect is taken out of the final model again and the rest refitted; one whose
