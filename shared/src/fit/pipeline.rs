@@ -136,8 +136,9 @@ impl IdentifyConfig {
     /// (144 evaluations instead of 272: a population of 16 covers one to three
     /// dimensions), least squares to a relative gain of 0.1 % and one restart. Only the
     /// basin matters here: the refit with every parameter free converges in it. On the
-    /// lab motor's diagnosis (docs/measurements/lab-motor.md) this took the search from
-    /// 30.8 to 17.8 s of CPU time with the same verdict.
+    /// lab motor's diagnosis (docs/measurements/lab-motor.md), with the baseline's
+    /// escalation beside the first round, the CPU time fell from 28 to 18 s with the same
+    /// verdict.
     pub fn basin(seed: u64) -> Self {
         IdentifyConfig {
             ffo: FfoConfig {
