@@ -18,6 +18,8 @@
 //! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
 //! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`, `BLIND_TACHO=S`
 //! reads the speed with a tacho of white noise `S` rad/s instead of the encoder.
+//! `MOTOR_ID_BIN=PATH` runs that `motor-id` instead of building and running
+//! `target/release/motor-id` (a copy keeps an hour-long run apart from rebuilds).
 
 use motor_id_tests::blind::{
     check, check_without, components, entry, label, OLDER, SINGLES, WITHHELD,
