@@ -28,6 +28,12 @@ type RefineStarts = heapless::Vec<[f32; MAX_FREE], { MAX_RESTARTS + 1 }>;
 /// next best FFO member, while restarts remain.
 const NOISE_FLOOR_FACTOR: f32 = 1.05;
 
+/// The fitness at or below which a fit reaches the noise floor, for measured speed noise
+/// `sigma_omega`: no restart and no wider search runs from there.
+fn noise_floor(sigma_omega: f32) -> f32 {
+    NOISE_FLOOR_FACTOR * sigma_omega
+}
+
 /// Outcome of an identification.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Identification {
@@ -57,7 +63,7 @@ impl Identification {
     /// Whether the fit reaches the noise floor ([`NOISE_FLOOR_FACTOR`] times the measured
     /// speed noise): a pipeline's escalation runs no wider search from such a fit.
     pub fn at_noise_floor(&self) -> bool {
-        self.cost.fitness() <= NOISE_FLOOR_FACTOR * self.sigma_omega
+        self.cost.fitness() <= noise_floor(self.sigma_omega)
     }
 }
 
@@ -198,7 +204,7 @@ fn pipeline(
         }
         space.unit(&full)
     });
-    let floor = NOISE_FLOOR_FACTOR * objective.sigma_omega();
+    let floor = noise_floor(objective.sigma_omega());
     let refine_first = cfg.search != SearchWhen::Always;
     if let (true, Some(u0), Some(_)) = (refine_first, start_u, cfg.refine) {
         run.refine(&u0[..dim]);
@@ -350,7 +356,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
     fn search(&mut self, seed_point: Option<&[f32]>) -> Result<(), Error> {
         let starts = self.explore(seed_point)?;
         let dim = self.space.dim();
-        let floor = NOISE_FLOOR_FACTOR * self.objective.sigma_omega();
+        let floor = noise_floor(self.objective.sigma_omega());
         for u0 in &starts {
             if !self.completed || self.cfg.refine.is_none() {
                 break;

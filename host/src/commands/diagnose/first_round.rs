@@ -13,18 +13,18 @@ use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::fit::sums::pooled_sigma;
-use motor_id_shared::model::effects::{Effect, Scales};
+use motor_id_shared::model::effects::Effect;
 
 /// The baseline fitted on the training records of `data` (the user's problem `spec`, the
 /// search's quiet options), and the [`FirstRound`] from it, the catalogue less `without`;
 /// `say` tells the steps.
-pub(super) fn baseline_and_first_round(
-    data: &Data,
+pub(super) fn baseline_and_first_round<'a>(
+    data: &'a Data,
     quiet: &FitOptions,
     spec: &ProblemSpec,
     without: &[Effect],
     say: &(impl Fn(String) + Sync),
-) -> Result<(Fit, FirstRound)> {
+) -> Result<(Fit, FirstRound<'a>)> {
     // The baseline's escalation (a wider search while it stays above the noise floor, so that
     // a stuck search is not taken for a missing effect) runs beside the first round of
     // effects, which starts from the baseline as its first search left it. Where the wider
@@ -55,30 +55,29 @@ pub(super) fn baseline_and_first_round(
     Ok((baseline, round))
 }
 
-/// What the search derives from the baseline before it picks an effect: where the baseline
-/// misfits, the order peaks of its residual, the held-out noise floor, the effects' scales,
-/// and the first round, every usable effect of the catalogue added to the baseline and
+/// What the search derives from the baseline before it picks an effect: what every fit of
+/// the search shares (the baseline's parameters, the effects' scales, the order peaks of its
+/// residual), where the baseline misfits, the held-out noise floor, and the first round, every usable effect of the catalogue added to the baseline and
 /// scored (best held-out misfit first), with the left-out entries that a usable effect
 /// extends (the reference its own part is judged against, never named).
-pub(super) struct FirstRound {
+pub(super) struct FirstRound<'a> {
+    pub(super) cx: Context<'a>,
     pub(super) where_: regimes::WhereReport,
-    pub(super) peaks: Peaks,
     pub(super) holdout: Holdout,
-    pub(super) scales: Scales,
     pub(super) usable: Vec<Effect>,
     pub(super) scored: Vec<(Effect, Scored)>,
     pub(super) left_out_parents: Vec<(Effect, Scored)>,
 }
 
 /// The [`FirstRound`] from the baseline fit `baseline` (a function of its parameters alone).
-fn first_round(
-    data: &Data,
+fn first_round<'a>(
+    data: &'a Data,
     quiet: &FitOptions,
     spec: &ProblemSpec,
     baseline: &Fit,
     without: &[Effect],
     say: &(impl Fn(String) + Sync),
-) -> Result<FirstRound> {
+) -> Result<FirstRound<'a>> {
     let base_params = baseline.result.params;
     let traces = data.traces(&base_params)?;
     let where_ = regimes::analyse(&traces, baseline.result.sigma_omega);
@@ -137,10 +136,9 @@ fn first_round(
         }
     }
     Ok(FirstRound {
+        cx,
         where_,
-        peaks,
         holdout,
-        scales,
         usable,
         scored,
         left_out_parents,

@@ -12,7 +12,7 @@ use super::effect_fit::with_effect;
 use super::first_round::{baseline_and_first_round, FirstRound};
 use super::found::{Search, StandingIn};
 use super::parallel::in_parallel;
-use super::search_context::{reduced, Context};
+use super::search_context::reduced;
 use super::verdict::significant;
 use crate::fit::FitOptions;
 use anyhow::Result;
@@ -35,24 +35,15 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     say("fitting the baseline model on the training records".into());
     let (baseline, round) = baseline_and_first_round(data, &quiet, &spec, without, &say)?;
     let FirstRound {
+        cx,
         where_,
-        peaks,
         holdout,
-        scales,
         usable,
         scored,
         left_out_parents,
     } = round;
+    let (base_params, scales, peaks) = (cx.base_params, cx.scales, cx.peaks);
     let baseline = data.score(baseline)?;
-    let base_params = baseline.fit.result.params;
-    let cx = Context {
-        data,
-        quiet: quiet.clone(),
-        spec,
-        base_params,
-        scales,
-        peaks,
-    };
     let mut found = Search {
         baseline,
         holdout,
