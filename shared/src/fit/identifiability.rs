@@ -162,6 +162,13 @@ pub struct Identifiability {
     pub unpinned: heapless::Vec<Direction, MAX_FREE>,
     /// Model evaluations this analysis spent.
     pub evaluations: u32,
+    /// Each free parameter's local profile line (same order as [`Self::params`]): per unit
+    /// of its natural coordinate, how far each free parameter moves (natural coordinates)
+    /// when it is held and the others refit on the local quadratic of the cost, i.e. the
+    /// column of the covariance over its diagonal (informed directions only; zeros for a
+    /// parameter with no informed component). The profile check starts its refits there
+    /// ([`super::profile_check`]).
+    pub profile_lines: [[f32; MAX_FREE]; MAX_FREE],
 }
 
 impl Identifiability {
@@ -344,6 +351,21 @@ fn interpret(
             });
         }
     }
+    let mut profile_lines = [[0.0f32; MAX_FREE]; MAX_FREE];
+    for (i, line) in profile_lines.iter_mut().enumerate().take(dim) {
+        // Column i of the covariance over the informed directions, F^+ e_i.
+        let mut column = [0.0f64; MAX_FREE];
+        for k in (0..dim).filter(|&k| vals[k] > floor) {
+            for (j, c) in column.iter_mut().enumerate().take(dim) {
+                *c += vecs[j][k] * vecs[i][k] / vals[k];
+            }
+        }
+        if column[i] > 0.0 {
+            for (l, c) in line.iter_mut().zip(column).take(dim) {
+                *l = (c / column[i]) as f32;
+            }
+        }
+    }
     let mut unpinned = heapless::Vec::new();
     for k in 0..dim {
         if !pinned_dir(k) {
@@ -371,5 +393,6 @@ fn interpret(
         combinations,
         unpinned,
         evaluations: ne.simulations,
+        profile_lines,
     })
 }

@@ -10,7 +10,11 @@
 //! parameters so pinned lay within 3 `s` of the truth.
 //!
 //! The check is the profile likelihood at `p +- 3 s`: the parameter fixed there, every other
-//! free parameter refitted by least squares from the optimum, the rise of the cost measured
+//! free parameter refitted by least squares from where the local quadratic puts it (the
+//! parameter's profile line, [`Identifiability::profile_lines`]; from the optimum with the
+//! others unmoved a refit along a narrow valley starts high on its wall: the line took the
+//! profiles' cost on the commissioning benchmark down by a quarter, 149 to 113
+//! simulations per checked motor without a flat direction, the verdicts alike), the rise of the cost measured
 //! in units of the residual variance (`d chi^2`). For a parameter the data pins as the local
 //! analysis says, `d chi^2` is about 9; where it is less, the deviation that the profile
 //! implies, `3 s / sqrt(d chi^2)`, is larger than `s`, and the larger of the two sides is
@@ -20,9 +24,13 @@
 //! The profile refits along a valley that bends slowly; one that bends far from the optimum
 //! escapes a least-squares refit that starts at the optimum (it stops on the valley's side
 //! in small steps). So the valley is also walked: from the optimum along each flat
-//! direction to half way and all the way to the box's edge, both ways, and least squares
-//! from there back down onto the valley (across it, where the fit is stiff, which it does
-//! well). Each point it lands on that fits as well as the optimum (a rise of at most
+//! direction to half way to the box's edge, both ways, and least squares from there back
+//! down onto the valley (across it, where the fit is stiff, which it does well); where
+//! that lands on the valley, from all the way to the edge too (where the descent from half
+//! way already ends above the optimum's fit, the valley holds no equal fit that far out,
+//! and one from farther up ends higher: on the commissioning benchmark, stopping there
+//! changed no verdict of the 1,000 motors and spared 8 % of the 90th percentile's
+//! simulations). Each point it lands on that fits as well as the optimum (a rise of at most
 //! [`VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a parameter that
 //! differs there from the optimum by more than three local deviations is touched by the
 //! flat direction after all (the valley bends into it), and it is not pinned.
@@ -58,7 +66,8 @@ const VALLEY_FIT: f64 = 1.0;
 /// units of the residual variance: the rise it measures is compared with 9, and a tenth
 /// of it is within the rise's own scatter.
 const PROFILE_TOL: f64 = 0.5;
-/// Fractions of the way to the box's edge the valley walk starts from.
+/// Fractions of the way to the box's edge the valley walk starts from, nearest first: a
+/// start whose descent ends off the valley ends the walk along that way.
 const WALK: [f32; 2] = [0.5, 1.0];
 
 /// A pinned parameter whose local deviation exceeds this (in its natural coordinate: 3 %
@@ -181,6 +190,7 @@ pub fn widen(
             continue;
         };
         let (lo, hi) = (free.lo, free.hi);
+        let line = id.profile_lines[k];
         if farthest[k] > STEPS * f64::from(std) {
             certainty.pinned = false;
             certainty.std = None;
@@ -199,6 +209,7 @@ pub fn widen(
                 at,
                 certainty.id,
                 value,
+                &line,
                 cost,
                 sigma2,
                 lm,
@@ -247,8 +258,11 @@ fn stopping_at(lm: &LmConfig, chi2: f64, sigma2: f64) -> LmConfig {
 }
 
 /// The profile at one side: `id` fixed at `value`, the other free parameters of `space`
-/// refitted by least squares from `at`; the rise of the cost over `cost` in units of the
-/// residual variance `sigma2`. None when the profile cannot be set up (a value the
+/// refitted by least squares from where the local quadratic puts them (`line`, the
+/// parameter's profile line of [`Identifiability::profile_lines`], from `at`); the rise of
+/// the cost over `cost` in units of the residual variance `sigma2`. (Started from `at`
+/// with the others unmoved, a refit along a narrow valley, J, B, Kv and tc sliding
+/// together, begins far up its wall and descends in many iterations.) None when the profile cannot be set up (a value the
 /// parameter may not take) or not simulated, or the check was stopped: the local figure
 /// stands.
 /// A frame of its own (the profile's space), beside the walk's rather than on top of it.
@@ -260,13 +274,13 @@ fn profile_rise(
     at: &ModelParams,
     id: ParamId,
     value: f64,
+    line: &[f32; MAX_FREE],
     cost: &Cost,
     sigma2: f64,
     lm: &LmConfig,
     runs: &mut Runs,
 ) -> Option<f64> {
-    let profile = space.fixing(at, id, value as f32).ok()?;
-    let start = profile.unit(at);
+    let (profile, start) = profile_start(space, at, id, value as f32, line)?;
     // The rise is wanted to a tenth of the 9 it is compared with.
     let r = runs.refine(
         objective,
@@ -275,6 +289,28 @@ fn profile_rise(
         &stopping_at(lm, PROFILE_TOL, sigma2),
     )?;
     Some(((r.cost.sse - cost.sse) / sigma2).max(1e-12))
+}
+
+/// The space of `id`'s profile at `value` and its refit's start there: every other free
+/// parameter of `space` moved from `at` along `id`'s profile `line` (clamped to its
+/// bounds). None when `id` is not free or the profile cannot be set up.
+fn profile_start(
+    space: &Space,
+    at: &ModelParams,
+    id: ParamId,
+    value: f32,
+    line: &[f32; MAX_FREE],
+) -> Option<(Space, [f32; MAX_FREE])> {
+    let held = space.free().iter().find(|f| f.id == id)?;
+    let offset = held.natural_offset(at.get(id), value);
+    let mut along = *at;
+    for (f, l) in space.free().iter().zip(line) {
+        let shifted = f.shifted(at.get(f.id), f64::from(*l) * offset);
+        along.set(f.id, shifted.clamp(f.lo, f.hi));
+    }
+    let profile = space.fixing(&along, id, value).ok()?;
+    let start = profile.unit(&along);
+    Some((profile, start))
 }
 
 /// The valley walk (module doc): for every free parameter, its largest distance from the
@@ -329,7 +365,7 @@ fn walk_the_valley(
                     continue;
                 };
                 if (r.cost.sse - cost.sse) / sigma2 > VALLEY_FIT {
-                    continue;
+                    break;
                 }
                 for (i, f) in free.iter().enumerate() {
                     let d = f64::from((f.value(r.u[i]) - at.get(f.id)).abs());
@@ -339,4 +375,63 @@ fn walk_the_valley(
         }
     }
     farthest
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::identify::identify;
+    use crate::fit::pipeline::IdentifyConfig;
+    use crate::fit::space::ProblemSpec;
+    use crate::model::profile::Profile;
+    use crate::model::synth::Noise;
+    use crate::testkit::Owned;
+
+    #[test]
+    fn a_profile_starts_at_the_local_minimum_of_the_others() {
+        // The paper motor with current: J, B and Kv correlated. Held 3 deviations off, a
+        // parameter's profile refit from its profile line gains under one residual variance
+        // (the line is where the local quadratic puts the others); from the optimum with
+        // the others unmoved, the refit of a correlated one gains many.
+        let data = Owned::paper_motor(
+            Profile::Steps,
+            0.015,
+            2000,
+            Noise {
+                omega: 0.5,
+                current: 0.02,
+            },
+            11,
+        );
+        let rec = [data.record(true, false)];
+        let spec = ProblemSpec::default();
+        let cfg = IdentifyConfig::default_pipeline(1);
+        let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
+        let objective = Objective::new(&rec).unwrap();
+        let space = Space::new(&spec, cfg.log_scale).unwrap();
+        let sigma2 = fit.cost.sse / (fit.cost.residuals as f64 - space.dim() as f64);
+        let lm = stopping_at(&LmConfig::default(), 0.01, sigma2);
+        let gain = |profile: &Space, start: &[f32; MAX_FREE]| {
+            let from = objective
+                .cost(&profile.params(&start[..profile.dim()]))
+                .unwrap();
+            let r = levenberg_marquardt(&objective, profile, start, &lm, &mut |_| {
+                ControlFlow::Continue(())
+            })
+            .unwrap();
+            (from.sse - r.cost.sse) / sigma2
+        };
+        let mut unmoved_gains = std::vec::Vec::new();
+        for (k, c) in fit.identifiability.params.iter().enumerate() {
+            let value = c.value + 3.0 * c.std.expect("pinned");
+            let line = fit.identifiability.profile_lines[k];
+            let (profile, start) = profile_start(&space, &fit.params, c.id, value, &line).unwrap();
+            let on_line = gain(&profile, &start);
+            assert!(on_line < 1.0, "{:?}: {on_line} from its line", c.id);
+            let unmoved = space.fixing(&fit.params, c.id, value).unwrap();
+            unmoved_gains.push(gain(&unmoved, &unmoved.unit(&fit.params)));
+        }
+        let most = unmoved_gains.iter().copied().fold(0.0, f64::max);
+        assert!(most > 10.0, "{unmoved_gains:?}");
+    }
 }
