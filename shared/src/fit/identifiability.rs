@@ -162,14 +162,16 @@ pub struct Identifiability {
     pub unpinned: heapless::Vec<Direction, MAX_FREE>,
     /// Model evaluations this analysis spent.
     pub evaluations: u32,
-    /// Each free parameter's local profile line (same order as [`Self::params`]): per unit
-    /// of its natural coordinate, how far each free parameter moves (natural coordinates)
-    /// when it is held and the others refit on the local quadratic of the cost, i.e. the
-    /// column of the covariance over its diagonal (informed directions only; zeros for a
-    /// parameter with no informed component). The profile check starts its refits there
-    /// ([`super::profile_check`]).
-    pub profile_lines: [[f32; MAX_FREE]; MAX_FREE],
 }
+
+/// Each free parameter's local profile line (same order as [`Identifiability::params`]):
+/// per unit of its natural coordinate, how far each free parameter moves (natural
+/// coordinates) when it is held and the others refit on the local quadratic of the cost,
+/// i.e. the column of the covariance over its diagonal (informed directions only; zeros
+/// for a parameter with no informed component). The profile check starts its refits there
+/// ([`super::profile_check`]). Beside the report, not in it: the report is held in several
+/// frames on the board's deepest stack (576 bytes more as a field).
+pub type ProfileLines = [[f32; MAX_FREE]; MAX_FREE];
 
 impl Identifiability {
     /// True when every free parameter is pinned.
@@ -187,6 +189,7 @@ pub fn analyse(
     u: &[f32],
     cost: &Cost,
     adc_readings: bool,
+    lines: &mut ProfileLines,
 ) -> Result<Identifiability, Error> {
     let mut ne = NormalEquations::EMPTY;
     let mut scores = ScoreBlocks::EMPTY;
@@ -198,7 +201,7 @@ pub fn analyse(
     }
     // The result is written by `interpret` straight into the caller's (no copy on this
     // frame, which holds the normal equations and the block scores).
-    interpret(&ne, &scores, space, u, cost)
+    interpret(&ne, &scores, space, u, cost, lines)
 }
 
 /// The analysis of the normal equations `ne` at `u`. A frame of its own: the eigen
@@ -210,6 +213,7 @@ fn interpret(
     space: &Space,
     u: &[f32],
     cost: &Cost,
+    lines: &mut ProfileLines,
 ) -> Result<Identifiability, Error> {
     let dim = space.dim();
     let dof = (cost.residuals as f64 - dim as f64).max(1.0);
@@ -295,7 +299,9 @@ fn interpret(
     // Quantity with gradient g in natural coordinates: (pinned?, std), by the delta method
     // over the informed directions (the larger of the white-noise and the sandwich
     // variance) plus the bounded spread along the flat ones.
-    let certainty = |g: &[f64; MAX_FREE]| -> (bool, f64) {
+    // Also `y`, the covariance over the informed directions times `g` (a parameter's
+    // profile line, over its own component).
+    let certainty = |g: &[f64; MAX_FREE]| -> (bool, f64, [f64; MAX_FREE]) {
         let norm2: f64 = g[..dim].iter().map(|x| x * x).sum();
         let (mut informed, mut bounded) = (0.0, 0.0);
         let mut flat = 0.0;
@@ -315,13 +321,19 @@ fn interpret(
         }
         let (robust, rounding) = sandwich_and_rounding(&y);
         let std = libm::sqrt(informed.max(robust) + rounding + bounded);
-        (flat <= FLAT_SHARE * norm2 && std <= PINNED_STD, std)
+        (flat <= FLAT_SHARE * norm2 && std <= PINNED_STD, std, y)
     };
     let mut params = heapless::Vec::new();
+    *lines = [[0.0f32; MAX_FREE]; MAX_FREE];
     for (i, f) in free.iter().enumerate() {
         let mut g = [0.0f64; MAX_FREE];
         g[i] = 1.0;
-        let (pinned, std_z) = certainty(&g);
+        let (pinned, std_z, column) = certainty(&g);
+        if column[i] > 0.0 {
+            for (l, c) in lines[i].iter_mut().zip(column).take(dim) {
+                *l = (c / column[i]) as f32;
+            }
+        }
         let value = p.get(f.id);
         let std = std_z * f.natural_scale(value);
         let _ = params.push(ParamCertainty {
@@ -342,28 +354,13 @@ fn interpret(
                     g[i] = dlog[f.id.index()] as f64;
                 }
             }
-            let (pinned, rel) = certainty(&g);
+            let (pinned, rel, _) = certainty(&g);
             let _ = combinations.push(CombinationCertainty {
                 combination: c,
                 value,
                 pinned,
                 rel_std: pinned.then_some(rel as f32),
             });
-        }
-    }
-    let mut profile_lines = [[0.0f32; MAX_FREE]; MAX_FREE];
-    for (i, line) in profile_lines.iter_mut().enumerate().take(dim) {
-        // Column i of the covariance over the informed directions, F^+ e_i.
-        let mut column = [0.0f64; MAX_FREE];
-        for k in (0..dim).filter(|&k| vals[k] > floor) {
-            for (j, c) in column.iter_mut().enumerate().take(dim) {
-                *c += vecs[j][k] * vecs[i][k] / vals[k];
-            }
-        }
-        if column[i] > 0.0 {
-            for (l, c) in line.iter_mut().zip(column).take(dim) {
-                *l = (c / column[i]) as f32;
-            }
         }
     }
     let mut unpinned = heapless::Vec::new();
@@ -393,6 +390,5 @@ fn interpret(
         combinations,
         unpinned,
         evaluations: ne.simulations,
-        profile_lines,
     })
 }

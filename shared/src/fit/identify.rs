@@ -6,7 +6,7 @@
 
 use crate::error::Error;
 use crate::fit::ffo::{Ffo, FfoConfig};
-use crate::fit::identifiability::{analyse, Identifiability};
+use crate::fit::identifiability::{analyse, Identifiability, ProfileLines};
 use crate::fit::initial::start;
 use crate::fit::objective::{Cost, Objective};
 pub use crate::fit::pipeline::{Escalation, IdentifyConfig, Pipeline, SearchWhen};
@@ -106,7 +106,8 @@ pub fn identify_from(
         &space,
         &mut progress,
     )?;
-    let mut result = conclude(&objective, &space, searched, cfg.adc_readings);
+    let mut lines: ProfileLines = [[0.0; MAX_FREE]; MAX_FREE];
+    let mut result = conclude(&objective, &space, searched, cfg.adc_readings, &mut lines);
     // The profile check works on the result in place (never a second copy of it), beside
     // the analysis's frame rather than on it. It is entered only when it has work (a flat
     // direction beside a pinned parameter, or a pinned parameter whose local deviation
@@ -123,6 +124,7 @@ pub fn identify_from(
             let mut iteration = 0;
             let checked = profile_check::widen(
                 &mut r.identifiability,
+                &lines,
                 &objective,
                 &space,
                 &r.params,
@@ -257,10 +259,11 @@ fn conclude(
     space: &Space,
     searched: Searched,
     adc_readings: bool,
+    lines: &mut ProfileLines,
 ) -> Result<Identification, Error> {
     let dim = space.dim();
     let (u, cost) = (searched.u, searched.cost);
-    let identifiability = analyse(objective, space, &u[..dim], &cost, adc_readings)?;
+    let identifiability = analyse(objective, space, &u[..dim], &cost, adc_readings, lines)?;
     Ok(Identification {
         params: space.params(&u[..dim]),
         cost,

@@ -11,7 +11,7 @@
 //!
 //! The check is the profile likelihood at `p +- 3 s`: the parameter fixed there, every other
 //! free parameter refitted by least squares from where the local quadratic puts it (the
-//! parameter's profile line, [`Identifiability::profile_lines`]; from the optimum with the
+//! parameter's profile line, [`ProfileLines`]; from the optimum with the
 //! others unmoved a refit along a narrow valley starts high on its wall: the line took the
 //! profiles' cost on the commissioning benchmark down by a quarter, 149 to 113
 //! simulations per checked motor without a flat direction, the verdicts alike), the rise of the cost measured
@@ -46,7 +46,7 @@
 //! nothing is spent.
 
 use crate::capacity::MAX_FREE;
-use crate::fit::identifiability::{Identifiability, ParamCertainty, PINNED_STD};
+use crate::fit::identifiability::{Identifiability, ParamCertainty, ProfileLines, PINNED_STD};
 use crate::fit::objective::{Cost, Objective};
 use crate::fit::refine::{levenberg_marquardt, LmConfig, LmResult};
 use crate::fit::space::Space;
@@ -153,8 +153,10 @@ impl Runs<'_> {
 /// Not inlined, nor the walk and the profiles: their frames are on the stack only while
 /// they run, one at a time, not throughout the identification's.
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 pub fn widen(
     id: &mut Identifiability,
+    lines: &ProfileLines,
     objective: &Objective,
     space: &Space,
     at: &ModelParams,
@@ -190,7 +192,7 @@ pub fn widen(
             continue;
         };
         let (lo, hi) = (free.lo, free.hi);
-        let line = id.profile_lines[k];
+        let line = lines[k];
         if farthest[k] > STEPS * f64::from(std) {
             certainty.pinned = false;
             certainty.std = None;
@@ -259,7 +261,7 @@ fn stopping_at(lm: &LmConfig, chi2: f64, sigma2: f64) -> LmConfig {
 
 /// The profile at one side: `id` fixed at `value`, the other free parameters of `space`
 /// refitted by least squares from where the local quadratic puts them (`line`, the
-/// parameter's profile line of [`Identifiability::profile_lines`], from `at`); the rise of
+/// parameter's profile line of [`ProfileLines`], from `at`); the rise of
 /// the cost over `cost` in units of the residual variance `sigma2`. (Started from `at`
 /// with the others unmoved, a refit along a narrow valley, J, B, Kv and tc sliding
 /// together, begins far up its wall and descends in many iterations.) None when the profile cannot be set up (a value the
@@ -301,13 +303,17 @@ fn profile_start(
     value: f32,
     line: &[f32; MAX_FREE],
 ) -> Option<(Space, [f32; MAX_FREE])> {
-    let held = space.free().iter().find(|f| f.id == id)?;
-    let offset = held.natural_offset(at.get(id), value);
-    let mut along = *at;
-    for (f, l) in space.free().iter().zip(line) {
-        let shifted = f.shifted(at.get(f.id), f64::from(*l) * offset);
-        along.set(f.id, shifted.clamp(f.lo, f.hi));
+    let free = space.free();
+    let k = free.iter().position(|f| f.id == id)?;
+    let mut u = space.unit(at);
+    // The held parameter's step in natural units, and each other's along the line, in
+    // unit coordinates (linear in them for a log scale).
+    let natural = f64::from(free[k].unit(value) - u[k]) * free[k].natural_per_unit(at.get(id));
+    for (j, f) in free.iter().enumerate() {
+        let step = f64::from(line[j]) * natural / f.natural_per_unit(at.get(f.id));
+        u[j] = (u[j] + step as f32).clamp(0.0, 1.0);
     }
+    let along = space.params(&u[..free.len()]);
     let profile = space.fixing(&along, id, value).ok()?;
     let start = profile.unit(&along);
     Some((profile, start))
@@ -380,6 +386,7 @@ fn walk_the_valley(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::identifiability::analyse;
     use crate::fit::identify::identify;
     use crate::fit::pipeline::IdentifyConfig;
     use crate::fit::space::ProblemSpec;
@@ -410,6 +417,17 @@ mod tests {
         let objective = Objective::new(&rec).unwrap();
         let space = Space::new(&spec, cfg.log_scale).unwrap();
         let sigma2 = fit.cost.sse / (fit.cost.residuals as f64 - space.dim() as f64);
+        let mut lines: ProfileLines = Default::default();
+        let u = space.unit(&fit.params);
+        analyse(
+            &objective,
+            &space,
+            &u[..space.dim()],
+            &fit.cost,
+            false,
+            &mut lines,
+        )
+        .unwrap();
         let lm = stopping_at(&LmConfig::default(), 0.01, sigma2);
         let gain = |profile: &Space, start: &[f32; MAX_FREE]| {
             let from = objective
@@ -424,7 +442,7 @@ mod tests {
         let mut unmoved_gains = std::vec::Vec::new();
         for (k, c) in fit.identifiability.params.iter().enumerate() {
             let value = c.value + 3.0 * c.std.expect("pinned");
-            let line = fit.identifiability.profile_lines[k];
+            let line = lines[k];
             let (profile, start) = profile_start(&space, &fit.params, c.id, value, &line).unwrap();
             let on_line = gain(&profile, &start);
             assert!(on_line < 1.0, "{:?}: {on_line} from its line", c.id);

@@ -149,27 +149,6 @@ impl FreeParam {
         }
     }
 
-    /// How far `to` lies from `p` in natural units at `p` (see
-    /// [`FreeParam::natural_per_unit`]): `ln(to / p)` for a parameter with positive bounds,
-    /// `(to - p) / natural_scale(p)` otherwise.
-    pub fn natural_offset(&self, p: f32, to: f32) -> f64 {
-        if self.lo > 0.0 {
-            libm::log(f64::from(to) / f64::from(p))
-        } else {
-            f64::from(to - p) / self.natural_scale(p)
-        }
-    }
-
-    /// The value `offset` natural units from `p` (the inverse of
-    /// [`FreeParam::natural_offset`]), not clamped to the bounds.
-    pub fn shifted(&self, p: f32, offset: f64) -> f32 {
-        if self.lo > 0.0 {
-            (f64::from(p) * libm::exp(offset)) as f32
-        } else {
-            (f64::from(p) + offset * self.natural_scale(p)) as f32
-        }
-    }
-
     /// One natural unit in the parameter's own unit at value `p` (see
     /// [`FreeParam::natural_per_unit`]): `p` itself, or `max(|p|, 1 % of the range)`.
     pub fn natural_scale(&self, p: f32) -> f64 {

@@ -200,7 +200,6 @@ mod tests {
             combinations: heapless::Vec::new(),
             unpinned: heapless::Vec::new(),
             evaluations: 0,
-            profile_lines: Default::default(),
         }
     }
 
