@@ -2,6 +2,7 @@
 //! exactly as a user (or another tool) would, through the CLI/CSV/JSON contract of `docs/CONTRACTS.md`.
 
 pub mod blind;
+pub mod footprint;
 pub mod reference_plant;
 
 use serde_json::Value;
