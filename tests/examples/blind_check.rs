@@ -197,11 +197,13 @@ fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
 
 /// Where the verdict's remainder lies, in a few words: the drift of a parameter along a
 /// record, the regime that holds most of the speed's misfit, and (`current:`) the one that
-/// holds most of the current's.
+/// holds most of the current's (the current channel's own where when the speed's misfit is
+/// explained and the current's is not).
 fn where_of(verdict: &serde_json::Value) -> String {
     let r = &verdict["remainder"];
     if r.is_null() {
-        return "-".into();
+        return most_over_represented(&verdict["current"]["regimes"])
+            .map_or("-".into(), |top| format!("current: {top}"));
     }
     let mut parts = Vec::new();
     if let Some(d) = r["drift"][0]["param"].as_str() {

@@ -33,6 +33,16 @@ pub struct Trace {
     pub current_residual: Option<Vec<f32>>,
 }
 
+impl Trace {
+    /// The residual of `channel`: `speed`, else the current's (when it is held).
+    pub fn of_channel(&self, channel: &str) -> Option<&[f32]> {
+        match channel {
+            "speed" => Some(&self.residual),
+            _ => self.current_residual.as_deref(),
+        }
+    }
+}
+
 /// Largest magnitude of `x` (0 when empty).
 pub fn peak(x: &[f32]) -> f32 {
     x.iter().fold(0.0f32, |m, v| m.max(v.abs()))

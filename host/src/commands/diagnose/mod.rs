@@ -107,20 +107,13 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let found = search::search(&data, &a.fit, &a.without)?;
     let after = found.last();
     let repeats = repeats.report(&data, &after.fit.result.params)?;
-    let rest = remainder::remainder(
-        &data,
-        &after.fit,
-        &a.fit,
-        after.holdout_rmse,
-        found.holdout.noise,
-        repeats.holdout_floor().map(|f| f.0),
-    )?;
     let current_noise = data.holdout_current_noise()?;
+    let left = what_is_left(&data, &found, &a.fit, &repeats, current_noise)?;
     let warnings = data.foreign_holdouts(&found.baseline)?;
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    let report = DiagnoseReport::new(&data, &found, repeats, rest, current_noise, warnings);
+    let report = DiagnoseReport::new(&data, &found, repeats, left, current_noise, warnings);
     print!("{}", report.text());
     if let Some(path) = &a.json {
         write_json(path, &report)?;
@@ -135,4 +128,52 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
         plot::plot(path, &data, base, chosen, &report)?;
     }
     Ok(())
+}
+
+/// What the final model of `found` leaves on the held-out records of `data`: the speed's
+/// remainder above its floor (the noise, or `repeats`' run-to-run floor), where the
+/// current's misfit lies when it alone is unexplained (against `current_noise`), and the
+/// named effects whose own regime keeps the misfit ([`naming::misfit_where_it_acts`]).
+fn what_is_left(
+    data: &Data,
+    found: &found::Search,
+    opts: &FitOptions,
+    repeats: &repeatability::Repeatability,
+    current_noise: Option<f32>,
+) -> Result<report::WhatIsLeft> {
+    let after = found.last();
+    let repeat_floor = repeats.holdout_floor().map(|f| f.0);
+    let remainder = remainder::remainder(
+        data,
+        &after.fit,
+        opts,
+        after.holdout_rmse,
+        found.holdout.noise,
+        repeat_floor,
+    )?;
+    let traces = data.holdout_traces(&after.fit.result.params)?;
+    // The speed's remainder says where both channels' misfit lies.
+    let current_alone = remainder.is_none()
+        && after
+            .holdout_rmse_current
+            .zip(current_noise)
+            .is_some_and(|(rmse, noise)| remainder::unexplained(rmse, noise));
+    let current_where = current_alone
+        .then(|| regime_shares::current_where(&traces))
+        .flatten();
+    let samples = regime_shares::RegimeSamples::of(&traces);
+    let named: Vec<Effect> = found.named().map(|(e, _)| e).collect();
+    let where_it_acts = naming::misfit_where_it_acts(
+        &named,
+        |regime, channel| {
+            regime_shares::rmse_in(&traces, &samples, |t| t.of_channel(channel), regime)
+        },
+        remainder::floor(found.holdout.noise, repeat_floor).0,
+        current_noise.filter(|_| data.with_current),
+    );
+    Ok(report::WhatIsLeft {
+        remainder,
+        current_where,
+        where_it_acts,
+    })
 }

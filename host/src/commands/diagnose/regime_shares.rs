@@ -5,89 +5,9 @@
 //! ([`super::remainder`]).
 
 use super::data::{peak, Trace};
+use motor_id_shared::model::effects::regime::{Regime, REGIMES};
+use motor_id_shared::model::effects::SignatureSample;
 use serde::Serialize;
-
-/// A class of samples.
-struct Regime {
-    name: &'static str,
-    short: &'static str,
-    member: fn(&Sample) -> bool,
-}
-
-/// What is known about one sample.
-pub(super) struct Sample {
-    pub(super) omega: f32,
-    pub(super) accel: f32,
-    pub(super) current: f32,
-    pub(super) omega_max: f32,
-    pub(super) accel_max: f32,
-    pub(super) current_max: f32,
-}
-
-const REGIMES: [Regime; 12] = [
-    Regime {
-        name: "transients (start-up and speed changes)",
-        short: "transient",
-        member: |s| s.accel.abs() > 0.1 * s.accel_max,
-    },
-    Regime {
-        name: "start-up (gaining speed below 30 % of max)",
-        short: "start-up",
-        member: |s| {
-            s.omega.abs() < 0.3 * s.omega_max && s.accel * s.omega.signum() > 0.1 * s.accel_max
-        },
-    },
-    Regime {
-        name: "steady state",
-        short: "steady",
-        member: |s| s.accel.abs() <= 0.1 * s.accel_max,
-    },
-    Regime {
-        name: "acceleration",
-        short: "accel.",
-        member: |s| s.accel * s.omega.signum() > 0.1 * s.accel_max,
-    },
-    Regime {
-        name: "deceleration",
-        short: "decel.",
-        member: |s| s.accel * s.omega.signum() < -0.1 * s.accel_max,
-    },
-    Regime {
-        name: "low speed (< 30 % of max)",
-        short: "low speed",
-        member: |s| s.omega.abs() < 0.3 * s.omega_max,
-    },
-    Regime {
-        name: "high speed (>= 30 % of max)",
-        short: "high speed",
-        member: |s| s.omega.abs() >= 0.3 * s.omega_max,
-    },
-    Regime {
-        name: "forward rotation",
-        short: "forward",
-        member: |s| s.omega > 0.05 * s.omega_max,
-    },
-    Regime {
-        name: "reverse rotation",
-        short: "reverse",
-        member: |s| s.omega < -0.05 * s.omega_max,
-    },
-    Regime {
-        name: "near standstill",
-        short: "standstill",
-        member: |s| s.omega.abs() <= 0.05 * s.omega_max,
-    },
-    Regime {
-        name: "positive current",
-        short: "i > 0",
-        member: |s| s.current > 0.05 * s.current_max,
-    },
-    Regime {
-        name: "negative current",
-        short: "i < 0",
-        member: |s| s.current < -0.05 * s.current_max,
-    },
-];
 
 /// Central-difference derivative.
 fn derivative(x: &[f32], dt: f32) -> Vec<f32> {
@@ -122,7 +42,7 @@ pub struct RegimeShare {
 /// What is known about every sample of `traces`, trace by trace, with the maxima over all
 /// of them (the classes' thresholds are shares of these).
 pub(super) struct RegimeSamples {
-    pub(super) per_trace: Vec<Vec<Sample>>,
+    pub(super) per_trace: Vec<Vec<SignatureSample>>,
 }
 
 impl RegimeSamples {
@@ -136,13 +56,13 @@ impl RegimeSamples {
             .zip(&accels)
             .map(|(t, acc)| {
                 (0..t.omega.len())
-                    .map(|k| Sample {
-                        omega: t.omega[k],
-                        accel: acc[k],
-                        current: t.current[k],
-                        omega_max,
-                        accel_max,
-                        current_max,
+                    .map(|k| SignatureSample {
+                        omega: f64::from(t.omega[k]),
+                        accel: f64::from(acc[k]),
+                        current: f64::from(t.current[k]),
+                        omega_max: f64::from(omega_max),
+                        accel_max: f64::from(accel_max),
+                        current_max: f64::from(current_max),
                     })
                     .collect()
             })
@@ -241,6 +161,26 @@ pub fn current_where(traces: &[Trace]) -> Option<(Vec<RegimeShare>, Vec<String>)
                 "A",
             )
         })
+}
+
+/// The RMSE of `residual` over the samples of `traces` in `regime` and how many there are
+/// (`None` when no trace holds the residual).
+pub(super) fn rmse_in<'t>(
+    traces: &'t [Trace],
+    samples: &RegimeSamples,
+    residual: impl Fn(&'t Trace) -> Option<&'t [f32]>,
+    regime: &Regime,
+) -> Option<(f64, usize)> {
+    let (mut sse, mut n, mut held) = (0.0f64, 0usize, false);
+    for (t, at) in traces.iter().zip(&samples.per_trace) {
+        let Some(r) = residual(t) else { continue };
+        held = true;
+        for (r, _) in r.iter().zip(at).filter(|(_, s)| (regime.member)(s)) {
+            sse += f64::from(*r) * f64::from(*r);
+            n += 1;
+        }
+    }
+    held.then(|| ((sse / n.max(1) as f64).sqrt(), n))
 }
 
 /// `x` rounded to 1e-6 (0 when not finite), for the reports.

@@ -5,7 +5,7 @@
 use super::data::Trace;
 use super::regime_shares::{round, shares, RegimeSamples, RegimeShare};
 use super::spectrum::{order_peak, OrderPeak};
-use motor_id_shared::model::effects::{Effect, Signature, SignatureSample};
+use motor_id_shared::model::effects::{Effect, Signature};
 use serde::Serialize;
 
 /// Pearson correlation.
@@ -108,15 +108,8 @@ pub fn analyse(traces: &[Trace], noise: f32) -> WhereReport {
         for (r, s) in t.residual.iter().zip(at) {
             let r = *r as f64;
             sse += r * r;
-            let at = SignatureSample {
-                omega: s.omega as f64,
-                accel: s.accel as f64,
-                current: s.current as f64,
-                omega_max: s.omega_max as f64,
-                current_max: s.current_max as f64,
-            };
             for (series, (_, signature)) in sig.iter_mut().zip(&names) {
-                series.push((signature.at)(&at));
+                series.push((signature.at)(s));
             }
             res_all.push(r);
         }

@@ -4,7 +4,10 @@
 use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
 use super::found::Search;
-use super::naming::{stand_in_reason, stand_ins, unpinned_own, Channel, PartialStandIn};
+use super::naming::{
+    stand_in_reason, stand_ins, unpinned_own, Channel, MisfitWhereItActs, PartialStandIn,
+};
+use super::regime_shares::RegimeShare;
 use super::regimes::WhereReport;
 use super::remainder::{floor, unexplained, Remainder};
 use super::repeatability::Repeatability;
@@ -140,6 +143,13 @@ pub struct ChannelVerdict {
     pub holdout_noise: Num,
     /// The current misfit is significantly above its noise.
     pub unexplained: bool,
+    /// Where the final model's current misfit lies when it is unexplained and the speed's is
+    /// not (with the speed's, in `remainder.current_regimes`): the regimes, the most
+    /// over-represented first, and the findings in words.
+    pub regimes: Vec<RegimeShare>,
+    /// The findings in words.
+    #[serde(rename = "where")]
+    pub where_: Vec<String>,
 }
 
 /// The verdict's effect as fitted.
@@ -214,6 +224,16 @@ fn share_removed(before: f32, after: f32, noise: f32) -> f32 {
     ((b2 - a2) / excess).clamp(0.0, 1.0)
 }
 
+/// What the final model leaves on the held-out records, for the verdict.
+pub struct WhatIsLeft {
+    /// The speed's remainder above the floor, where it lies (None when explained).
+    pub remainder: Option<Remainder>,
+    /// Where the current's misfit lies, when it alone is unexplained.
+    pub current_where: Option<(Vec<RegimeShare>, Vec<String>)>,
+    /// Named effects whose own regime keeps the misfit ([`super::naming`]).
+    pub where_it_acts: Vec<MisfitWhereItActs>,
+}
+
 impl DiagnoseReport {
     /// The report of `search` on `data`, with what is left of the misfit (`remainder`) and
     /// the held-out records' current noise (`current_noise`, when current is measured).
@@ -221,10 +241,15 @@ impl DiagnoseReport {
         data: &Data,
         search: &Search,
         repeatability: Repeatability,
-        remainder: Option<Remainder>,
+        left: WhatIsLeft,
         current_noise: Option<f32>,
         warnings: Vec<String>,
     ) -> DiagnoseReport {
+        let WhatIsLeft {
+            remainder,
+            current_where,
+            where_it_acts,
+        } = left;
         let baseline = &search.baseline;
         let holdout_noise = search.holdout.noise;
         let after = search.last();
@@ -232,11 +257,19 @@ impl DiagnoseReport {
             .holdout_rmse_current
             .zip(after.holdout_rmse_current)
             .zip(current_noise)
-            .map(|((before, after), noise)| ChannelVerdict {
-                holdout_rmse_before: Num(before),
-                holdout_rmse_after: Num(after),
-                holdout_noise: Num(noise),
-                unexplained: unexplained(after, noise),
+            .map(|((before, after), noise)| {
+                let unexplained = unexplained(after, noise);
+                let (regimes, where_) = current_where
+                    .filter(|_| unexplained && remainder.is_none())
+                    .unwrap_or_default();
+                ChannelVerdict {
+                    holdout_rmse_before: Num(before),
+                    holdout_rmse_after: Num(after),
+                    holdout_noise: Num(noise),
+                    unexplained,
+                    regimes,
+                    where_,
+                }
             });
         // A name only for what the effects explain: on every channel, most of the excess
         // above the floor gone, or what is left within the floor.
@@ -307,6 +340,25 @@ impl DiagnoseReport {
                     );
                     partial.push(p);
                 }
+            }
+        }
+        // A named effect whose own regime keeps the misfit (naming::misfit_where_it_acts):
+        // a stand-in, the others stay named.
+        if stand_in.is_none() {
+            let (effects, steps): (Vec<Effect>, Vec<f32>) =
+                search.named().map(|(e, s)| (e, s.holdout_rmse)).unzip();
+            let names: Vec<&'static str> = effects.iter().map(|e| e.name()).collect();
+            let each = stand_ins(&names, &steps, &channels[0], "");
+            for (e, mut p) in effects.into_iter().zip(each) {
+                let Some(w) = where_it_acts.iter().find(|w| w.effect == e) else {
+                    continue;
+                };
+                if loose.contains(&e) {
+                    continue;
+                }
+                loose.push(e);
+                p.why = w.why();
+                partial.push(p);
             }
         }
         let named = stand_in.is_none();

@@ -149,12 +149,14 @@ fn an_unexplained_verdict_without_a_remainder_says_what_holds_it_up() {
         holdout_rmse_after: Num(0.1),
         holdout_noise: Num(0.05),
         unexplained: true,
+        regimes: Vec::new(),
+        where_: vec!["71 % of the current's misfit lies in near standstill".into()],
     });
     let text = r.text();
     assert!(!text.contains("only with the partial stand-ins"), "{text}");
     assert!(
         text.contains(
-            "unexplained: the held-out current misfit (0.1000 A) stays above 1.2 x its noise (0.0500 A)"
+            "unexplained: the held-out current misfit (0.1000 A) stays above 1.2 x its noise (0.0500 A)\nunexplained: 71 % of the current's misfit lies in near standstill\n"
         ),
         "{text}"
     );

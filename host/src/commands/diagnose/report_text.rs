@@ -94,6 +94,9 @@ impl DiagnoseReport {
                         c.holdout_rmse_after.decimal(),
                         c.holdout_noise.decimal()
                     );
+                    for line in &c.where_ {
+                        s += &format!("unexplained: {line}\n");
+                    }
                 }
             }
             None => {

@@ -3,6 +3,7 @@
 //! (kept above a tenth). The linear step keeps `kv`; the loss enters as held inputs: the
 //! voltage gains back `(1 - flux) kv w` and the torque loses `(1 - flux) kv i`.
 
+use super::regime;
 use super::entry::{ids, one, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -30,6 +31,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "current*|current|",
         at: |x| x.current * x.current.abs(),
     }),
+    shows_in: Some(regime::ACCELERATION),
     role: Role::HeldInputs(held),
 };
 

@@ -9,6 +9,7 @@
 //! trap a local search does not leave; `ka` keeps both directions' friction positive and
 //! smooth everywhere in its box.
 
+use super::regime;
 use super::entry::{ids, one, EffectSpec, Role, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -38,6 +39,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus one while turning",
         at: |x| -((x.omega.abs() > 0.02 * x.omega_max) as i32 as f64),
     }),
+    shows_in: Some(regime::STANDSTILL),
     role: Role::FrictionLaw,
 };
 

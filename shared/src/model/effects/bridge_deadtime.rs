@@ -6,6 +6,7 @@
 //! `ib`: `v_error = -vdt clamp(i / ib, -1, 1)`. Unlike `brush_drop`, current flows through
 //! it (no dead zone at zero current).
 
+use super::regime;
 use super::entry::{ids, EffectBounds, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -49,6 +50,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus current over a small band",
         at: |x| -(x.current / (0.05 * x.current_max).max(1e-12)).clamp(-1.0, 1.0),
     }),
+    shows_in: Some(regime::STANDSTILL),
     role: Role::HeldInputs(held),
 };
 

@@ -2,6 +2,7 @@
 //! paper Eq. 1; no current flows while the driving voltage `v - Kv w` stays within `vb` (the
 //! dead zone of [`crate::model::sim`] on the current).
 
+use super::regime;
 use super::entry::{ids, one, EffectSpec, Role, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -29,6 +30,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus sign of current",
         at: |x| -x.current.signum() * (x.current.abs() > 0.02 * x.current_max) as i32 as f64,
     }),
+    shows_in: Some(regime::STANDSTILL),
     role: Role::CurrentDeadZone,
 };
 

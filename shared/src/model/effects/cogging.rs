@@ -8,6 +8,7 @@
 //! low speed (`cog_amp / (J cog_cycles w)`, where tacho ripple grows with `w`). The angle
 //! follows the measured speed when a fit gives it, as the tacho ripple's does.
 
+use super::regime;
 use super::entry::{ids, EffectBounds, EffectSpec, Held, HeldInputs, Role, StepState};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -63,6 +64,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     // Its speed ripple lives at an angle, not at a speed or current: the diagnosis finds it
     // in the residual's order spectrum instead.
     signature: None,
+    shows_in: Some(regime::LOW_SPEED),
     role: Role::HeldInputs(held),
 };
 

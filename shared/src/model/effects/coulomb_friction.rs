@@ -2,6 +2,7 @@
 //! to the load of paper Eq. 4, with stiction: a shaft at rest stays there while the drive
 //! torque `Kv i - tl` stays within `tc` (the dead zone of [`crate::model::sim`]).
 
+use super::regime;
 use super::entry::{ids, one, EffectSpec, Role, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -31,6 +32,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus sign of speed",
         at: |x| -x.omega.signum() * (x.omega.abs() > 0.02 * x.omega_max) as i32 as f64,
     }),
+    shows_in: Some(regime::STANDSTILL),
     role: Role::ShaftDeadZone,
 };
 

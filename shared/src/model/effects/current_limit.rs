@@ -10,6 +10,7 @@
 //! model.
 
 use super::armature_reaction::flux_factor;
+use super::regime;
 use super::entry::{ids, one, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
 use super::winding_heating::resistance_factor;
 use crate::model::sim::sign;
@@ -55,6 +56,7 @@ pub const SPEC: EffectSpec = EffectSpec {
             }
         },
     }),
+    shows_in: Some(regime::START_UP),
     role: Role::HeldInputs(held),
 };
 

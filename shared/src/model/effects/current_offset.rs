@@ -2,6 +2,7 @@
 //! sensor's zero error): the reading is `i + io` while the motor carries `i`. It acts on the
 //! current channel only, so only records with current show it.
 
+use super::regime;
 use super::entry::{ids, one, EffectSpec, Role};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -30,6 +31,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     },
     // No mark on the speed: it shows in the current residual as a constant.
     signature: None,
+    shows_in: Some(regime::STANDSTILL),
     role: Role::Reading,
 };
 

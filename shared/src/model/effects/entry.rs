@@ -1,6 +1,7 @@
 //! The shape of a catalogue entry: what one effect tells the model, the fit and the
 //! diagnosis about itself.
 
+use super::regime::Regime;
 use crate::model::params::ModelParams;
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -27,6 +28,11 @@ pub struct EffectSpec {
     pub search_bounds: fn(p: &ModelParams, s: &Scales) -> EffectBounds,
     /// The shape its absence leaves in the speed residual, if it has a simple one.
     pub signature: Option<Signature>,
+    /// The operating regime where its form shows most distinctly ([`super::regime`]), if
+    /// one does: to be named by the diagnosis, a model with it must leave the held-out
+    /// misfit there near the floor on every channel, else it only stands in for a cause of
+    /// another form (docs/ARCHITECTURE.md, the diagnosis's naming rules).
+    pub shows_in: Option<Regime>,
     /// Where it acts in the model step: the simulator takes it from here.
     pub role: Role,
 }
@@ -154,6 +160,8 @@ pub struct SignatureSample {
     pub current: f64,
     /// Largest |speed| over the records [rad/s].
     pub omega_max: f64,
+    /// Largest |acceleration| over the records [rad/s^2].
+    pub accel_max: f64,
     /// Largest |current| over the records [A].
     pub current_max: f64,
 }

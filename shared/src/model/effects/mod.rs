@@ -14,6 +14,7 @@
 
 pub mod entry;
 pub mod friction;
+pub mod regime;
 
 pub use entry::{
     EffectBounds, EffectSpec, Held, HeldInputs, Role, Scales, Signature, SignatureSample, StepState,

@@ -1,6 +1,7 @@
 //! `quadratic_load`: a fan or pump load whose torque grows with the square of the speed,
 //! `kq w |w|`, added to the load of paper Eq. 4.
 
+use super::regime;
 use super::entry::{ids, one, EffectSpec, Role, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -31,6 +32,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus speed*|speed|",
         at: |x| -x.omega * x.omega.abs(),
     }),
+    shows_in: Some(regime::HIGH_SPEED),
     role: Role::SpeedLoad,
 };
 

@@ -2,6 +2,7 @@
 //! converter's conversion time); the simulator reads it from a delay line, interpolating
 //! between samples.
 
+use super::regime;
 use super::entry::{ids, one, EffectSpec, Role, Signature};
 use crate::capacity::MAX_DELAY_SAMPLES;
 use crate::param_id::{ParamId, ParamSpec};
@@ -31,6 +32,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         label: "minus acceleration",
         at: |x| -x.accel,
     }),
+    shows_in: Some(regime::TRANSIENTS),
     role: Role::ReadingDelay,
 };
 

@@ -5,6 +5,7 @@
 //! model, without its viscous term, which is paper Eq. 4's `B w`). It extends
 //! `coulomb_friction` (`tc` is that entry's): the diagnosis tries it on top of it.
 
+use super::regime;
 use super::entry::{ids, EffectBounds, EffectSpec, Role, Signature};
 use crate::param_id::{ParamId, ParamSpec};
 
@@ -55,6 +56,7 @@ pub const SPEC: EffectSpec = EffectSpec {
             -x.omega.signum() * low as i32 as f64
         },
     }),
+    shows_in: Some(regime::STANDSTILL),
     role: Role::FrictionLaw,
 };
 

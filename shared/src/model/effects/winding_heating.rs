@@ -73,6 +73,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     // warms), which a sample's operating point does not show: the diagnosis sees it as a
     // drift of `ra` from window to window instead.
     signature: None,
+    shows_in: None,
     role: Role::HeldInputs(held),
 };
 
