@@ -96,9 +96,10 @@ impl MisfitWhereItActs {
 }
 
 /// The named effects (`named`) whose own regime keeps the final model's held-out misfit
-/// above [`OWN_REGIME_RATIO`] times the floor on a channel: on `speed`, `(rmse in the
-/// regime, samples)` of the held-out speed residual for each named effect's regime, against
-/// `speed_floor`; on the current likewise against its noise. An effect's worst channel.
+/// above [`OWN_REGIME_RATIO`] times the floor on a channel it acts on: `in_regime` gives
+/// `(rmse in the regime, samples)` of a channel's held-out residual for a regime; the speed
+/// is judged against `speed_floor`, the current against its noise. An effect's worst
+/// channel.
 pub fn misfit_where_it_acts(
     named: &[Effect],
     in_regime: impl Fn(&Regime, &'static str) -> Option<(f64, usize)>,
@@ -107,10 +108,16 @@ pub fn misfit_where_it_acts(
 ) -> Vec<MisfitWhereItActs> {
     let mut out = Vec::new();
     for &effect in named {
-        let Some(regime) = effect.spec().shows_in else {
+        let spec = effect.spec();
+        let Some(regime) = spec.shows_in else {
             continue;
         };
-        let floors = [("speed", Some(speed_floor)), ("current", current_noise)];
+        // Judged on the channels it acts on only (a current sensor's offset leaves the
+        // speed to the motor, a speed reading's lag the current).
+        let floors = [
+            ("speed", Some(speed_floor).filter(|_| spec.acts_on_speed())),
+            ("current", current_noise.filter(|_| spec.acts_on_current())),
+        ];
         let worst = floors
             .into_iter()
             .filter_map(|(channel, floor)| {
@@ -314,6 +321,14 @@ mod tests {
         assert_eq!(speed[0].channel, "speed");
         // Too few samples in the regime to judge.
         assert!(misfit_where_it_acts(&named, at(3.0, 0.3, 199), 1.0, Some(0.05)).is_empty());
+        // A current sensor's offset is judged on the current only: the speed's misfit near
+        // standstill is not its doing.
+        let offset = [Effect::CurrentOffset];
+        assert!(misfit_where_it_acts(&offset, at(3.0, 0.05, 1000), 1.0, Some(0.05)).is_empty());
+        assert_eq!(
+            misfit_where_it_acts(&offset, at(1.0, 0.1, 1000), 1.0, Some(0.05))[0].channel,
+            "current"
+        );
     }
 
     #[test]

@@ -63,6 +63,24 @@ pub enum Role {
     Reading,
 }
 
+impl EffectSpec {
+    /// It changes what the speed channel reads: the motor's dynamics (paper Eq. 1-4, every
+    /// role but a reading's), or the speed's reading itself.
+    pub const fn acts_on_speed(&self) -> bool {
+        !matches!(self.role, Role::Reading) || !self.needs_current
+    }
+
+    /// It changes what the current channel reads: the motor's dynamics, or the current's
+    /// reading itself (not a lag or a shape of the speed's reading).
+    pub const fn acts_on_current(&self) -> bool {
+        match self.role {
+            Role::Reading => self.needs_current,
+            Role::ReadingDelay => false,
+            _ => true,
+        }
+    }
+}
+
 impl Role {
     /// It changes the dynamics or the readings' shape beyond what the simulator's Coulomb
     /// friction path takes (which handles a shaft's dead zone and a delayed reading alone).
