@@ -30,6 +30,17 @@ impl Owned {
         Owned::new(&ModelParams::PAPER_MOTOR, exp, dt, n, noise, seed)
     }
 
+    /// The paper's motor under voltage steps, 2,000 samples of 15 ms, with 0.5 rad/s of
+    /// speed noise and 0.02 A of current noise drawn from `seed`: a record with current on
+    /// which J, B and Kv are correlated but pinned.
+    pub fn paper_motor_noisy_steps(seed: u64) -> Owned {
+        let noise = Noise {
+            omega: 0.5,
+            current: 0.02,
+        };
+        Owned::paper_motor(Profile::Steps, 0.015, 2000, noise, seed)
+    }
+
     /// `n` samples of `dt`, all zero, no coast-down.
     fn zeros(dt: f32, n: usize) -> Owned {
         Owned {

@@ -5,7 +5,7 @@
 //! (`tests/examples/footprint.rs`) and the test that holds the budgets
 //! (`tests/tests/firmware_budgets.rs`).
 
-use crate::{simulate, Qemu};
+use crate::{steps_record, Qemu};
 use object::{Object, ObjectSection, SectionFlags};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -73,26 +73,16 @@ pub fn footprint_line(q: &Qemu) -> impl Fn(&str) -> f64 {
 /// The speed-only record of [`PROFILE_CHECK_MOTOR`] (steps, 100 Hz, 20 s), written to
 /// `dir/speed-only.csv`.
 pub fn speed_only_record(dir: &Path) -> PathBuf {
-    let csv = dir.join("speed-only.csv");
-    simulate(
-        &csv,
+    steps_record(
+        &dir.join("speed-only.csv"),
         &[
             "--motor",
             PROFILE_CHECK_MOTOR,
-            "--profile",
-            "steps",
-            "--rate",
-            "100",
-            "--duration",
-            "20",
             "--noise-omega",
             "0.1",
-            "--seed",
-            "4",
             "--speed-only",
         ],
-    );
-    csv
+    )
 }
 
 /// The board's report of the last identification ran the profile check with work left:

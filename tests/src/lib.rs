@@ -144,25 +144,28 @@ pub fn assert_within_3_percent(r: &Value, motor: &[(&str, f32)]) {
 /// A record for the board: 2,000 samples of the paper's motor (steps, 100 Hz, 20 s) with
 /// speed and current noise, written to `dir/board-record.csv`.
 pub fn board_record(dir: &Path) -> PathBuf {
-    let csv = dir.join("board-record.csv");
-    simulate(
-        &csv,
-        &[
-            "--profile",
-            "steps",
-            "--rate",
-            "100",
-            "--duration",
-            "20",
-            "--noise-omega",
-            "0.5",
-            "--noise-current",
-            "0.02",
-            "--seed",
-            "4",
-        ],
-    );
-    csv
+    steps_record(
+        &dir.join("board-record.csv"),
+        &["--noise-omega", "0.5", "--noise-current", "0.02"],
+    )
+}
+
+/// A board-sized record at `path`: voltage steps at 100 Hz for 20 s (2,000 samples), seed
+/// 4, with `extra` options of `simulate` (the motor, the noise, `--speed-only`).
+pub fn steps_record(path: &Path, extra: &[&str]) -> PathBuf {
+    let mut args = vec![
+        "--profile",
+        "steps",
+        "--rate",
+        "100",
+        "--duration",
+        "20",
+        "--seed",
+        "4",
+    ];
+    args.extend_from_slice(extra);
+    simulate(path, &args);
+    path.to_path_buf()
 }
 
 /// `motor-id diagnose --train TRAIN... --holdout HOLDOUT... EXTRA --json REPORT -q`,

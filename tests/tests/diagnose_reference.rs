@@ -130,6 +130,30 @@ fn a_pair_of_effects_is_named_exactly_and_nothing_rides_on_it() {
     assert_eq!(o.named, expected);
 }
 
+/// Effect `effect` alone in the reference plant at `rate` (seed `seed`), the catalogue
+/// entry `left_out` left out of the search: nothing is named, the verdict says unexplained,
+/// and `stand_in` is a partial stand-in whose reason contains `why` ("" for any).
+fn a_stand_in_only_when_left_out(
+    effect: &str,
+    rate: f64,
+    seed: u64,
+    left_out: &str,
+    stand_in: &str,
+    why: &str,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let o = motor_id_tests::blind::check_without(dir.path(), &[effect], rate, seed, &[left_out]);
+    assert!(o.named.is_empty(), "{:?}", o.named);
+    assert!(o.unexplained);
+    let partial = motor_id_tests::partial_stand_ins(&o.verdict);
+    assert!(
+        partial
+            .iter()
+            .any(|(name, reason)| name == stand_in && reason.contains(why)),
+        "{partial:?}"
+    );
+}
+
 #[test]
 fn coulomb_friction_left_out_is_not_named_as_an_extension_of_it() {
     // Coulomb friction alone, its entry left out (`--without coulomb_friction`): static
@@ -137,20 +161,13 @@ fn coulomb_friction_left_out_is_not_named_as_an_extension_of_it() {
     // 0 and was named (blind check `without`, 5 kHz, seed 1). Now it is judged against the
     // left-out entry's own fit: no better, it is a partial stand-in, and the verdict says
     // unexplained.
-    let dir = tempfile::tempdir().unwrap();
-    let o = motor_id_tests::blind::check_without(
-        dir.path(),
-        &["coulomb"],
+    a_stand_in_only_when_left_out(
+        "coulomb",
         5000.0,
         1,
-        &["coulomb_friction"],
-    );
-    assert!(o.named.is_empty(), "{:?}", o.named);
-    assert!(o.unexplained);
-    let partial = motor_id_tests::partial_stand_ins(&o.verdict);
-    assert!(
-        partial.iter().any(|(name, _)| name == "static_friction"),
-        "{partial:?}"
+        "coulomb_friction",
+        "static_friction",
+        "",
     );
 }
 
@@ -160,17 +177,13 @@ fn a_look_alike_whose_form_the_records_do_not_pin_is_not_named() {
     // current resolves fits as well, and was named (blind check `without`, 5 kHz, seed 1:
     // vdt 0.53 V pinned, ib 0.03 A not). It is a partial stand-in now, and the verdict
     // says unexplained.
-    let dir = tempfile::tempdir().unwrap();
-    let o =
-        motor_id_tests::blind::check_without(dir.path(), &["brush"], 5000.0, 1, &["brush_drop"]);
-    assert!(o.named.is_empty(), "{:?}", o.named);
-    assert!(o.unexplained);
-    let partial = motor_id_tests::partial_stand_ins(&o.verdict);
-    assert!(
-        partial
-            .iter()
-            .any(|(name, why)| name == "bridge_deadtime" && why.contains("do not pin its ib")),
-        "{partial:?}"
+    a_stand_in_only_when_left_out(
+        "brush",
+        5000.0,
+        1,
+        "brush_drop",
+        "bridge_deadtime",
+        "do not pin its ib",
     );
 }
 
@@ -182,22 +195,13 @@ fn a_look_alike_that_misfits_where_its_form_shows_is_not_named() {
     // current at zero and a bridge's band lets it flow, the held-out current's misfit stays
     // 2-5 times its noise (3.4 here). With the whole catalogue the same records name the
     // dead time (the rule does not take a true effect's name).
-    let dir = tempfile::tempdir().unwrap();
-    let o = motor_id_tests::blind::check_without(
-        dir.path(),
-        &["deadtime"],
+    a_stand_in_only_when_left_out(
+        "deadtime",
         2000.0,
         2,
-        &["bridge_deadtime"],
-    );
-    assert!(o.named.is_empty(), "{:?}", o.named);
-    assert!(o.unexplained);
-    let partial = motor_id_tests::partial_stand_ins(&o.verdict);
-    assert!(
-        partial
-            .iter()
-            .any(|(name, why)| name == "brush_drop" && why.contains("near standstill")),
-        "{partial:?}"
+        "bridge_deadtime",
+        "brush_drop",
+        "near standstill",
     );
     let whole = tempfile::tempdir().unwrap();
     let o = motor_id_tests::blind::check(whole.path(), &["deadtime"], 2000.0, 2);

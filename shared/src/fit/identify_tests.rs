@@ -31,16 +31,7 @@ fn assert_within(p: &ModelParams, truth: &ModelParams, rel: f32) {
 #[test]
 fn paper_motor_with_current_recovered_within_one_percent() {
     let truth = ModelParams::PAPER_MOTOR;
-    let data = Owned::paper_motor(
-        Profile::Steps,
-        0.015,
-        2000,
-        Noise {
-            omega: 0.5,
-            current: 0.02,
-        },
-        11,
-    );
+    let data = Owned::paper_motor_noisy_steps(11);
     let rec = [data.record(true, false)];
     let id = default_fit(&rec, 1);
     std::println!(

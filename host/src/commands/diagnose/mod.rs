@@ -130,6 +130,16 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     Ok(())
 }
 
+/// What the final model leaves on the held-out records, for the verdict.
+pub struct WhatIsLeft {
+    /// The speed's remainder above the floor, where it lies (None when explained).
+    pub remainder: Option<remainder::Remainder>,
+    /// Where the current's misfit lies, when it alone is unexplained.
+    pub current_where: Option<(Vec<regime_shares::RegimeShare>, Vec<String>)>,
+    /// Named effects whose own regime keeps the misfit ([`naming`]).
+    pub where_it_acts: Vec<naming::MisfitWhereItActs>,
+}
+
 /// What the final model of `found` leaves on the held-out records of `data`: the speed's
 /// remainder above its floor (the noise, or `repeats`' run-to-run floor), where the
 /// current's misfit lies when it alone is unexplained (against `current_noise`), and the
@@ -140,18 +150,20 @@ fn what_is_left(
     opts: &FitOptions,
     repeats: &repeatability::Repeatability,
     current_noise: Option<f32>,
-) -> Result<report::WhatIsLeft> {
+) -> Result<WhatIsLeft> {
     let after = found.last();
     let repeat_floor = repeats.holdout_floor().map(|f| f.0);
+    // The final model's held-out residuals, simulated once for every question below.
+    let traces = data.holdout_traces(&after.fit.result.params)?;
     let remainder = remainder::remainder(
         data,
+        &traces,
         &after.fit,
         opts,
         after.holdout_rmse,
         found.holdout.noise,
         repeat_floor,
     )?;
-    let traces = data.holdout_traces(&after.fit.result.params)?;
     // The speed's remainder says where both channels' misfit lies.
     let current_alone = remainder.is_none()
         && after
@@ -171,7 +183,7 @@ fn what_is_left(
         remainder::floor(found.holdout.noise, repeat_floor).0,
         current_noise.filter(|_| data.with_current),
     );
-    Ok(report::WhatIsLeft {
+    Ok(WhatIsLeft {
         remainder,
         current_where,
         where_it_acts,

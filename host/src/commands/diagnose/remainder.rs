@@ -16,7 +16,6 @@ use super::regimes::{self, RecordShare};
 use crate::fit::{Fit, FitOptions};
 use crate::report::Num;
 use anyhow::Result;
-use motor_id_shared::ModelParams;
 use serde::Serialize;
 
 /// Held-out RMSE over the floor above which the remainder is unexplained: a misfit 20 %
@@ -82,10 +81,12 @@ pub fn unexplained(rmse: f32, floor: f32) -> bool {
 }
 
 /// The remainder of the final model (`final_fit`, fitted with `opts`) on the held-out
-/// records of `data`, whose held-out RMSE is `rmse`, against `noise` and the repeatability
+/// records of `data` (its residuals there, `traces`), whose held-out RMSE is `rmse`, against `noise` and the repeatability
 /// floor; `None` when it is not significantly above the floor.
+#[allow(clippy::too_many_arguments)]
 pub fn remainder(
     data: &Data,
+    traces: &[Trace],
     final_fit: &Fit,
     opts: &FitOptions,
     rmse: f32,
@@ -96,10 +97,8 @@ pub fn remainder(
     if !unexplained(rmse, floor_rmse) {
         return Ok(None);
     }
-    let p: &ModelParams = &final_fit.result.params;
-    let traces: Vec<Trace> = data.holdout_traces(p)?;
-    let found = regimes::analyse(&traces, noise);
-    let span = worst_span(&traces);
+    let found = regimes::analyse(traces, noise);
+    let span = worst_span(traces);
     let excess = (rmse * rmse - floor_rmse * floor_rmse).max(0.0).sqrt();
     let mut summary = vec![format!(
         "{excess:.3} rad/s of the held-out misfit ({rmse:.3} rad/s) lies above the {floor_kind} \
@@ -114,8 +113,7 @@ pub fn remainder(
             .filter(|line| line.contains("of the misfit lies in"))
             .cloned(),
     );
-    let (current_regimes, current_lines) =
-        regime_shares::current_where(&traces).unwrap_or_default();
+    let (current_regimes, current_lines) = regime_shares::current_where(traces).unwrap_or_default();
     summary.extend(current_lines);
     summary.push(format!(
         "its largest share ({:.0} %) lies in {} from {:.3} s to {:.3} s",

@@ -4,13 +4,12 @@
 use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
 use super::found::Search;
-use super::naming::{
-    stand_in_reason, stand_ins, unpinned_own, Channel, MisfitWhereItActs, PartialStandIn,
-};
+use super::naming::{stand_in_reason, stand_ins, unpinned_own, Channel, PartialStandIn};
 use super::regime_shares::RegimeShare;
 use super::regimes::WhereReport;
 use super::remainder::{floor, unexplained, Remainder};
 use super::repeatability::Repeatability;
+use super::WhatIsLeft;
 use crate::report::identify::reported_params;
 use crate::report::{estimates, ByParam, Num};
 use motor_id_shared::model::effects::Effect;
@@ -224,16 +223,6 @@ fn share_removed(before: f32, after: f32, noise: f32) -> f32 {
     ((b2 - a2) / excess).clamp(0.0, 1.0)
 }
 
-/// What the final model leaves on the held-out records, for the verdict.
-pub struct WhatIsLeft {
-    /// The speed's remainder above the floor, where it lies (None when explained).
-    pub remainder: Option<Remainder>,
-    /// Where the current's misfit lies, when it alone is unexplained.
-    pub current_where: Option<(Vec<RegimeShare>, Vec<String>)>,
-    /// Named effects whose own regime keeps the misfit ([`super::naming`]).
-    pub where_it_acts: Vec<MisfitWhereItActs>,
-}
-
 impl DiagnoseReport {
     /// The report of `search` on `data`, with what is left of the misfit (`remainder`) and
     /// the held-out records' current noise (`current_noise`, when current is measured).
@@ -318,48 +307,42 @@ impl DiagnoseReport {
                 in_model: false,
             });
         }
-        // A named effect whose own parameters the final fit does not pin: a stand-in too
-        // (naming::unpinned_own); the others stay named.
+        // A named effect of the final model is a stand-in too, the others staying named,
+        // when its fit does not pin its own parameters (naming::unpinned_own) or its own
+        // regime keeps the misfit (naming::misfit_where_it_acts). The first needs current:
+        // from the speed alone the motor has flat directions (paper Eq. 6) along which a
+        // torque-like parameter scales too (Coulomb friction's tc with J and B), so it is
+        // unpinned whatever the records show of its form.
         let final_fit = &after.fit.result.identifiability;
         let mut loose: Vec<Effect> = Vec::new();
-        // With current only: from the speed alone the motor has flat directions (paper
-        // Eq. 6) along which a torque-like parameter scales too (Coulomb friction's tc with
-        // J and B), so it is unpinned whatever the records show of its form.
-        if stand_in.is_none() && data.with_current {
-            let (effects, steps): (Vec<Effect>, Vec<f32>) =
-                search.named().map(|(e, s)| (e, s.holdout_rmse)).unzip();
-            let names: Vec<&'static str> = effects.iter().map(|e| e.name()).collect();
-            let each = stand_ins(&names, &steps, &channels[0], "");
-            for (e, mut p) in effects.into_iter().zip(each) {
-                let free = unpinned_own(e, final_fit);
-                if !free.is_empty() {
-                    loose.push(e);
-                    p.why = format!(
-                        "the records do not pin its {}: they do not show its form, only that it shaves the misfit",
-                        free.join(", ")
-                    );
-                    partial.push(p);
-                }
-            }
-        }
-        // A named effect whose own regime keeps the misfit (naming::misfit_where_it_acts):
-        // a stand-in, the others stay named.
         if stand_in.is_none() {
             let (effects, steps): (Vec<Effect>, Vec<f32>) =
                 search.named().map(|(e, s)| (e, s.holdout_rmse)).unzip();
             let names: Vec<&'static str> = effects.iter().map(|e| e.name()).collect();
             let each = stand_ins(&names, &steps, &channels[0], "");
+            // Those with unpinned parameters listed first, then those of the regime rule.
+            let (mut by_params, mut by_regime) = (Vec::new(), Vec::new());
             for (e, mut p) in effects.into_iter().zip(each) {
-                let Some(w) = where_it_acts.iter().find(|w| w.effect == e) else {
-                    continue;
+                let free = match data.with_current {
+                    true => unpinned_own(e, final_fit),
+                    false => Vec::new(),
                 };
-                if loose.contains(&e) {
+                if !free.is_empty() {
+                    p.why = format!(
+                        "the records do not pin its {}: they do not show its form, only that it shaves the misfit",
+                        free.join(", ")
+                    );
+                    by_params.push(p);
+                } else if let Some(w) = where_it_acts.iter().find(|w| w.effect == e) {
+                    p.why = w.why();
+                    by_regime.push(p);
+                } else {
                     continue;
                 }
                 loose.push(e);
-                p.why = w.why();
-                partial.push(p);
             }
+            partial.extend(by_params);
+            partial.extend(by_regime);
         }
         let named = stand_in.is_none();
         let names = |e: &Effect| named && !loose.contains(e);

@@ -1,0 +1,58 @@
+//! Tests of the profile check (`fit::profile_check`).
+
+use super::*;
+use crate::fit::identifiability::analyse;
+use crate::fit::identify::identify;
+use crate::fit::pipeline::IdentifyConfig;
+use crate::fit::space::ProblemSpec;
+use crate::testkit::Owned;
+
+#[test]
+fn a_profile_starts_at_the_local_minimum_of_the_others() {
+    // The paper motor with current: J, B and Kv correlated. Held 3 deviations off, a
+    // parameter's profile refit from its profile line gains under one residual variance
+    // (the line is where the local quadratic puts the others); from the optimum with
+    // the others unmoved, the refit of a correlated one gains many.
+    let data = Owned::paper_motor_noisy_steps(11);
+    let rec = [data.record(true, false)];
+    let spec = ProblemSpec::default();
+    let cfg = IdentifyConfig::default_pipeline(1);
+    let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
+    let objective = Objective::new(&rec).unwrap();
+    let space = Space::new(&spec, cfg.log_scale).unwrap();
+    let sigma2 = fit.cost.sse / (fit.cost.residuals as f64 - space.dim() as f64);
+    let mut lines: ProfileLines = Default::default();
+    let u = space.unit(&fit.params);
+    analyse(
+        &objective,
+        &space,
+        &u[..space.dim()],
+        &fit.cost,
+        false,
+        &mut lines,
+    )
+    .unwrap();
+    let lm = stopping_at(&LmConfig::default(), 0.01, sigma2);
+    let gain = |profile: &Space, start: &[f32; MAX_FREE]| {
+        let from = objective
+            .cost(&profile.params(&start[..profile.dim()]))
+            .unwrap();
+        let r = levenberg_marquardt(&objective, profile, start, &lm, &mut |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        (from.sse - r.cost.sse) / sigma2
+    };
+    let mut unmoved_gains = std::vec::Vec::new();
+    for (k, c) in fit.identifiability.params.iter().enumerate() {
+        let value = c.value + 3.0 * c.std.expect("pinned");
+        let line = lines[k];
+        let (profile, start) = profile_start(&space, &fit.params, c.id, value, &line).unwrap();
+        let on_line = gain(&profile, &start);
+        assert!(on_line < 1.0, "{:?}: {on_line} from its line", c.id);
+        let unmoved = space.fixing(&fit.params, c.id, value).unwrap();
+        unmoved_gains.push(gain(&unmoved, &unmoved.unit(&fit.params)));
+    }
+    let most = unmoved_gains.iter().copied().fold(0.0, f64::max);
+    assert!(most > 10.0, "{unmoved_gains:?}");
+}
