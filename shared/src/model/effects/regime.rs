@@ -104,8 +104,18 @@ pub const NEGATIVE_CURRENT: Regime = Regime {
     member: |s| s.current < -0.05 * s.current_max,
 };
 
+/// Within 10 % of the largest current either way: where a drive that limits its current
+/// holds it (starts and reversals of a voltage-driven record) and a model that does not
+/// know the limit drives more, where armature reaction weakens the flux most, and where a
+/// warm winding's copper loss (i² Ra) and its higher Ra show most.
+pub const HIGH_CURRENT: Regime = Regime {
+    name: "high current (|i| >= 90 % of max: starts, reversals)",
+    short: "high |i|",
+    member: |s| s.current.abs() >= 0.9 * s.current_max && s.current_max > 0.0,
+};
+
 /// Every regime, in the order the diagnosis reports them.
-pub const REGIMES: [Regime; 12] = [
+pub const REGIMES: [Regime; 13] = [
     TRANSIENTS,
     START_UP,
     STEADY,
@@ -118,4 +128,5 @@ pub const REGIMES: [Regime; 12] = [
     STANDSTILL,
     POSITIVE_CURRENT,
     NEGATIVE_CURRENT,
+    HIGH_CURRENT,
 ];
