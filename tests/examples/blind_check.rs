@@ -10,7 +10,8 @@
 //! (`null`, `static`, `asymmetric`, `deadtime`, `offset`, `limit`, `cogging` (told its
 //! detents per revolution), `heating` (winding heating, on 40 s reversing cycles), the
 //! withheld `cogging-untold`, a `delay` of the speed reading of 0.5-1 sample, pairs as
-//! `static+offset` or `static+cogging-untold`).
+//! `static+offset` or `static+cogging-untold`; `all` also holds the older entries the
+//! encoder can show, `coulomb`, `quadratic`, `reaction` and `brush`, alone and in pairs).
 //! CASES `without` (or `without:limit,cogging`) runs instead each catalogue entry's effect
 //! alone with that entry left out of the search (`--without`): what is named for it (only a
 //! part of the truth may be: the Coulomb friction of static friction), whether the verdict
@@ -50,6 +51,21 @@ fn main() {
     // A speed reading delayed by half a sample to one, alone and beside each entry.
     cases.push(vec!["delay"]);
     cases.extend(SINGLES.iter().map(|x| vec![*x, "delay"]));
+    // The older entries the encoder can show (a tacho ripple needs a tacho: `BLIND_TACHO`),
+    // alone, in pairs and beside each newer entry; Coulomb friction not beside its own
+    // extensions, which hold it.
+    let older: Vec<&str> = OLDER.iter().copied().filter(|o| *o != "ripple").collect();
+    for (i, a) in older.iter().enumerate() {
+        cases.push(vec![a]);
+        cases.extend(older[i + 1..].iter().map(|b| vec![*a, *b]));
+        let extends_it = |x: &&str| *a == "coulomb" && matches!(*x, "static" | "asymmetric");
+        cases.extend(
+            SINGLES
+                .iter()
+                .filter(|x| !extends_it(x))
+                .map(|x| vec![*a, *x]),
+        );
+    }
     // Cases named: each `a+b` (or `null`), any entry's case name.
     if let Some(pick) = args.get(2).filter(|a| *a != "all") {
         cases = pick

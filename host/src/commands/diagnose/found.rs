@@ -5,7 +5,7 @@
 
 use super::data::Scored;
 use super::regimes::WhereReport;
-use super::verdict::{significant, Holdout};
+use super::verdict::{predicts_better, significant, Holdout};
 use motor_id_shared::model::effects::{Effect, Scales};
 
 /// What the search found.
@@ -31,6 +31,118 @@ pub struct Search {
     /// match the entry they extend, which was left out: stand-ins for it, in the order
     /// found.
     pub standing_in: Vec<StandingIn>,
+    /// Effects added at a step of the search where an entry of another form fitted the
+    /// held-out records about as well ([`LookAlike`]).
+    pub look_alikes: Vec<LookAlike>,
+}
+
+/// An effect the search added where an entry of another form (neither the entry it extends
+/// nor an extension of it, nor a simpler form it holds as a limit) also passed the
+/// significance rule at the same step, and the effect does not predict the held-out records
+/// better than it ([`predicts_better`]): the records do not tell the two apart, so the
+/// effect chosen is not named ([`super::report`]). Met at a step of the search, it is
+/// weighed again on the final model (`search::confirmed`): the effect swapped for the
+/// look-alike, everything refitted.
+#[derive(Clone, Debug)]
+pub struct LookAlike {
+    /// The effect the search added.
+    pub effect: Effect,
+    /// The entry that fits about as well.
+    pub alike: Effect,
+    /// Held-out (joint) misfit with the effect, and with the look-alike instead (at the
+    /// step the search met them; once confirmed, of the final model and of it swapped).
+    pub effect_rmse: f32,
+    /// See `effect_rmse`.
+    pub alike_rmse: f32,
+}
+
+impl LookAlike {
+    /// The closest look-alike of `chosen` among `others` (every effect with its fit at the
+    /// same step of the search, each significant there): one of another form that
+    /// `chosen` does not predict better. The training records do not judge it: on them
+    /// each form fits its own way (a Coulomb friction and a bridge dead time are alike
+    /// at steady speed, and only the held-out reversals tell them apart).
+    /// Each effect comes with its held-out (joint) misfit.
+    pub fn among(
+        chosen: (Effect, f32),
+        others: impl IntoIterator<Item = (Effect, f32)>,
+        holdout: &Holdout,
+    ) -> Option<LookAlike> {
+        let (effect, effect_rmse) = chosen;
+        others
+            .into_iter()
+            .filter(|(e, _)| !related(effect, *e) && !limit_of(effect, *e))
+            .filter(|(_, alike)| !predicts_better(*alike, effect_rmse, holdout))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(alike, alike_rmse)| LookAlike {
+                effect,
+                alike,
+                effect_rmse,
+                alike_rmse,
+            })
+    }
+
+    /// Why the effect is not named, in words.
+    pub fn why(&self) -> String {
+        format!(
+            "with {} in its place the model predicts the held-out records about as well ({:.4} against {:.4}): they do not tell the two forms apart",
+            self.alike.name(),
+            self.alike_rmse,
+            self.effect_rmse
+        )
+    }
+}
+
+/// The same entry, or one extends the other: not look-alikes (the extension's own rule,
+/// [`Search::needed`], judges them).
+fn related(a: Effect, b: Effect) -> bool {
+    a == b || a.parent() == Some(b) || b.parent() == Some(a)
+}
+
+/// `simpler` is the limit of `general`'s form: a brush drop is a bridge dead time whose
+/// band `ib` vanishes (`-vdt clamp(i / ib, -1, 1)` tends to `-vb sign(i)`, and no current
+/// flows within it). Where the general form predicts no better, the simpler one stands:
+/// it is no look-alike of it (the converse is: a dead time whose band the records cannot
+/// tell from none is not named over the brush drop that fits as well).
+fn limit_of(simpler: Effect, general: Effect) -> bool {
+    simpler == Effect::BrushDrop && general == Effect::BridgeDeadtime
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HOLDOUT: Holdout = Holdout {
+        noise: 1.0,
+        signal_rms: 100.0,
+    };
+
+    #[test]
+    fn an_effect_is_a_look_alike_where_another_form_predicts_about_as_well() {
+        use Effect::*;
+        // 1 % apart at the noise floor's level: alike; 10 % better: told apart.
+        let alike = LookAlike::among((BridgeDeadtime, 1.50), [(CoulombFriction, 1.515)], &HOLDOUT);
+        assert_eq!(alike.map(|l| l.alike), Some(CoulombFriction));
+        assert!(
+            LookAlike::among((BridgeDeadtime, 1.50), [(CoulombFriction, 1.70)], &HOLDOUT).is_none()
+        );
+        // The closest of several; an extension and the entry it extends are not judged here.
+        let l = LookAlike::among(
+            (CoulombFriction, 1.50),
+            [
+                (StaticFriction, 1.49),
+                (CurrentOffset, 1.52),
+                (BridgeDeadtime, 1.51),
+            ],
+            &HOLDOUT,
+        );
+        assert_eq!(l.map(|l| l.alike), Some(BridgeDeadtime));
+        // A brush drop is a dead time's limit (a vanishing band): chosen, it stands; a dead
+        // time chosen over a brush drop that fits as well does not.
+        assert!(LookAlike::among((BrushDrop, 1.50), [(BridgeDeadtime, 1.50)], &HOLDOUT).is_none());
+        let l = LookAlike::among((BridgeDeadtime, 1.50), [(BrushDrop, 1.50)], &HOLDOUT);
+        assert_eq!(l.map(|l| l.alike), Some(BrushDrop));
+    }
 }
 
 /// An extension the search passed over: it only matches the entry it extends, which was

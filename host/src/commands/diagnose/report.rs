@@ -308,8 +308,9 @@ impl DiagnoseReport {
             });
         }
         // A named effect of the final model is a stand-in too, the others staying named,
-        // when its fit does not pin its own parameters (naming::unpinned_own) or its own
-        // regime keeps the misfit (naming::misfit_where_it_acts). The first needs current:
+        // when its fit does not pin its own parameters (naming::unpinned_own), its own
+        // regime keeps the misfit (naming::misfit_where_it_acts) or an entry of another
+        // form fitted as well where the search added it (found::LookAlike). The first needs current:
         // from the speed alone the motor has flat directions (paper Eq. 6) along which a
         // torque-like parameter scales too (Coulomb friction's tc with J and B), so it is
         // unpinned whatever the records show of its form.
@@ -335,6 +336,9 @@ impl DiagnoseReport {
                     by_params.push(p);
                 } else if let Some(w) = where_it_acts.iter().find(|w| w.effect == e) {
                     p.why = w.why();
+                    by_regime.push(p);
+                } else if let Some(l) = search.look_alikes.iter().find(|l| l.effect == e) {
+                    p.why = l.why();
                     by_regime.push(p);
                 } else {
                     continue;

@@ -65,16 +65,23 @@ pub struct Holdout {
 
 /// True when `candidate` is a real improvement over `reference` (module doc).
 pub fn significant(reference: &Candidate, candidate: &Candidate, holdout: &Holdout) -> bool {
-    let holdout_noise = holdout.noise;
     let n = reference.residuals.max(1) as f64;
     let bic = n
         * (candidate.sse.max(f64::MIN_POSITIVE) / reference.sse.max(f64::MIN_POSITIVE)).ln()
         + candidate.added_params as f64 * n.ln();
-    let (before, after) = (reference.holdout_rmse, candidate.holdout_rmse);
-    let excess = (before * before - holdout_noise * holdout_noise).max(0.0);
     candidate.resolvable
         && bic < -BIC_DROP
-        && after <= (1.0 - HOLDOUT_DROP) * before
+        && predicts_better(reference.holdout_rmse, candidate.holdout_rmse, holdout)
+}
+
+/// The held-out half of the rule: a model whose held-out RMSE is `after` predicts the
+/// held-out records better than one at `before` by at least 2 %, by 10 % of the misfit
+/// above the noise and by more than numerics. What tells two models of different forms
+/// apart ([`super::found::LookAlike`]): on the training records each fits its own way, and
+/// the prediction judges them.
+pub fn predicts_better(before: f32, after: f32, holdout: &Holdout) -> bool {
+    let excess = (before * before - holdout.noise * holdout.noise).max(0.0);
+    after <= (1.0 - HOLDOUT_DROP) * before
         && before - after >= SIGNAL_DROP * holdout.signal_rms
         && before * before - after * after >= EXCESS_SHARE * excess
 }
