@@ -45,10 +45,17 @@
 //! flow, the held-out current misfit 2-5 times its noise). It is then a partial stand-in
 //! and the verdict unexplained; the others stay named.
 //!
+//! A fourth rule, look-alikes ([`super::found::LookAlike`], judged by the search): an
+//! effect added where an entry of another form passed the significance rule at the same
+//! step and predicted the held-out records about as well, and still does in the effect's
+//! place in the final model, is a partial stand-in (the records do not tell the two forms
+//! apart: a bridge dead time whose band they cannot tell from none, beside a brush drop).
+//!
 //! What no rule catches: a stand-in whose model reaches the floor everywhere with its
-//! parameters pinned (a cause the records barely show beyond what the stand-in mimics:
-//! cogging at a few per cent of the stall torque is taken for static friction;
-//! docs/measurements/blind-checks.md, "Each entry left out").
+//! parameters pinned while the true cause is not in the catalogue (a cause the records
+//! barely show beyond what the stand-in mimics: cogging at a few per cent of the stall
+//! torque is taken for static friction; docs/measurements/blind-checks.md, "Each entry
+//! left out").
 
 use crate::report::Num;
 use motor_id_shared::fit::identifiability::Identifiability;

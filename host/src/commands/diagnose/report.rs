@@ -321,7 +321,8 @@ impl DiagnoseReport {
                 search.named().map(|(e, s)| (e, s.holdout_rmse)).unzip();
             let names: Vec<&'static str> = effects.iter().map(|e| e.name()).collect();
             let each = stand_ins(&names, &steps, &channels[0], "");
-            // Those with unpinned parameters listed first, then those of the regime rule.
+            // Those with unpinned parameters listed first, then those of the regime rule
+            // and the look-alikes.
             let (mut by_params, mut by_regime) = (Vec::new(), Vec::new());
             for (e, mut p) in effects.into_iter().zip(each) {
                 let free = match data.with_current {
