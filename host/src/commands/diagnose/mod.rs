@@ -28,6 +28,7 @@ mod report_text;
 mod search;
 mod search_context;
 mod spectrum;
+mod stand_ins;
 mod verdict;
 
 use crate::csvio::{ReadOptions, RecordReader};

@@ -4,11 +4,12 @@
 use super::coverage::{self, CoverageGap};
 use super::data::{Data, Scored};
 use super::found::Search;
-use super::naming::{stand_in_reason, stand_ins, unpinned_own, Channel, PartialStandIn};
+use super::naming::{Channel, PartialStandIn};
 use super::regime_shares::RegimeShare;
 use super::regimes::WhereReport;
 use super::remainder::{floor, unexplained, Remainder};
 use super::repeatability::Repeatability;
+use super::stand_ins::Judged;
 use super::WhatIsLeft;
 use crate::report::identify::reported_params;
 use crate::report::{estimates, ByParam, Num};
@@ -279,78 +280,8 @@ impl DiagnoseReport {
                 name: "current",
             }))
             .collect();
-        let stand_in = stand_in_reason(&channels);
-        let mut partial = match &stand_in {
-            Some((why, k)) => {
-                let (names, steps): (Vec<&'static str>, Vec<f32>) = search
-                    .named()
-                    .map(|(e, s)| {
-                        let current = s.holdout_rmse_current.unwrap_or(f32::NAN);
-                        (e.name(), if *k == 0 { s.holdout_rmse } else { current })
-                    })
-                    .unzip();
-                stand_ins(&names, &steps, &channels[*k], why)
-            }
-            None => Vec::new(),
-        };
-        // An extension that only matches the entry it extends, left out by the user: a
-        // stand-in for that entry (found::Search::needed).
-        for x in &search.standing_in {
-            partial.push(PartialStandIn {
-                name: x.effect.name(),
-                share_of_excess: Num(channels[0].share(x.before, x.after)),
-                channel: channels[0].name,
-                why: format!(
-                    "no better on the held-out records than {}, which it extends and which was left out: what it explains is that entry's part, not its own",
-                    x.parent.name()
-                ),
-                in_model: false,
-            });
-        }
-        // A named effect of the final model is a stand-in too, the others staying named,
-        // when its fit does not pin its own parameters (naming::unpinned_own), its own
-        // regime keeps the misfit (naming::misfit_where_it_acts) or an entry of another
-        // form fitted as well where the search added it (found::LookAlike). The first needs current:
-        // from the speed alone the motor has flat directions (paper Eq. 6) along which a
-        // torque-like parameter scales too (Coulomb friction's tc with J and B), so it is
-        // unpinned whatever the records show of its form.
-        let final_fit = &after.fit.result.identifiability;
-        let mut loose: Vec<Effect> = Vec::new();
-        if stand_in.is_none() {
-            let (effects, steps): (Vec<Effect>, Vec<f32>) =
-                search.named().map(|(e, s)| (e, s.holdout_rmse)).unzip();
-            let names: Vec<&'static str> = effects.iter().map(|e| e.name()).collect();
-            let each = stand_ins(&names, &steps, &channels[0], "");
-            // Those with unpinned parameters listed first, then those of the regime rule
-            // and the look-alikes.
-            let (mut by_params, mut by_regime) = (Vec::new(), Vec::new());
-            for (e, mut p) in effects.into_iter().zip(each) {
-                let free = match data.with_current {
-                    true => unpinned_own(e, final_fit),
-                    false => Vec::new(),
-                };
-                if !free.is_empty() {
-                    p.why = format!(
-                        "the records do not pin its {}: they do not show its form, only that it shaves the misfit",
-                        free.join(", ")
-                    );
-                    by_params.push(p);
-                } else if let Some(w) = where_it_acts.iter().find(|w| w.effect == e) {
-                    p.why = w.why();
-                    by_regime.push(p);
-                } else if let Some(l) = search.look_alikes.iter().find(|l| l.effect == e) {
-                    p.why = l.why();
-                    by_regime.push(p);
-                } else {
-                    continue;
-                }
-                loose.push(e);
-            }
-            partial.extend(by_params);
-            partial.extend(by_regime);
-        }
-        let named = stand_in.is_none();
-        let names = |e: &Effect| named && !loose.contains(e);
+        let judged = Judged::of(search, data.with_current, &channels, &where_it_acts);
+        let names = |e: &Effect| judged.names(*e);
         // The verdict's effect: the first one named (a stand-in before it passed over).
         let mut named_chain = search.chain.iter().filter(|(e, _)| names(e));
         let chosen = named_chain.next();
@@ -414,13 +345,13 @@ impl DiagnoseReport {
                     holdout_rmse_after: Num(s.holdout_rmse),
                 })
                 .collect(),
-            partial,
             params: reported_params(&after.fit.result, &after.fit.spec),
             repeatability_floor: repeatability.holdout_floor(),
             // A stand-in's share of the misfit has no named cause.
             unexplained: remainder.is_some()
                 || current.as_ref().is_some_and(|c| c.unexplained)
-                || !loose.is_empty(),
+                || !judged.loose.is_empty(),
+            partial: judged.partial,
             remainder,
             current,
         };

@@ -104,12 +104,18 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     met.extend(LookAlike::among(chosen, rivals, &found.holdout));
     // An extension whose own part another entry beside its parent explains as well: the
     // search goes on from the parent, where the two are weighed at the next step.
-    let (first, first_fit) = match own_part_alike(&cx, &found, &usable, first, &first_fit, &say)? {
-        Some(parent) if met.is_empty() => {
+    // (Not where a rival of another form ties with it already: it is then weighed on the
+    // final model.)
+    let parent = match met.is_empty() {
+        true => own_part_alike(&cx, &found, &usable, first, &first_fit, &say)?,
+        false => None,
+    };
+    let (first, first_fit) = match parent {
+        Some(parent) => {
             let fit = found.fit(parent).expect("the parent was scored").clone();
             (parent, fit)
         }
-        _ => (first, first_fit),
+        None => (first, first_fit),
     };
 
     // Forward: more effects, one at a time, on what is left after the ones named so far.
