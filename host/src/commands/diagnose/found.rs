@@ -99,13 +99,33 @@ fn related(a: Effect, b: Effect) -> bool {
     a == b || a.parent() == Some(b) || b.parent() == Some(a)
 }
 
-/// `simpler` is the limit of `general`'s form: a brush drop is a bridge dead time whose
-/// band `ib` vanishes (`-vdt clamp(i / ib, -1, 1)` tends to `-vb sign(i)`, and no current
-/// flows within it). Where the general form predicts no better, the simpler one stands:
-/// it is no look-alike of it (the converse is: a dead time whose band the records cannot
-/// tell from none is not named over the brush drop that fits as well).
+/// `simpler` is the limit of `general`'s form ([`Effect::limit`]): a brush drop is a bridge
+/// dead time whose band `ib` vanishes (`-vdt clamp(i / ib, -1, 1)` tends to `-vb sign(i)`,
+/// and no current flows within it). Where the general form predicts no better, the simpler
+/// one stands: it is no look-alike of it (the converse is: a dead time whose band the
+/// records cannot tell from none is not named over the brush drop that fits as well).
 fn limit_of(simpler: Effect, general: Effect) -> bool {
-    simpler == Effect::BrushDrop && general == Effect::BridgeDeadtime
+    general.limit().is_some_and(|(limit, _)| limit == simpler)
+}
+
+/// A parameter lies at the floor of its search bounds when it is within this share of
+/// their range above it. Chosen on the blind harness (docs/measurements/blind-checks.md):
+/// a bridge dead time fitted to a brush drop puts its band within 0.5 % of the floor's
+/// value (0.1 % of the largest current), fitted to a true dead time 4.5-10 % of the range
+/// above it (15-31 times the floor).
+pub const AT_FLOOR: f32 = 0.01;
+
+/// The entry whose form `chosen`'s fit `fit` has reached: its [`Effect::limit`] parameter
+/// at the floor of its search bounds ([`AT_FLOOR`]). The records then show the limit's form
+/// only (a dead time with no band is a brush drop), and the search takes the limit's entry
+/// in its place where that passed the significance rule at the same step: a form the
+/// records do not show is not named (its band unpinned, the dead time was a partial
+/// stand-in and the brush drop beside it went unnamed).
+pub fn at_limit(chosen: Effect, fit: &Scored) -> Option<Effect> {
+    let (limit, param) = chosen.limit()?;
+    let (lo, hi) = fit.fit.spec.bounds[param.index()];
+    let value = fit.fit.result.params.get(param);
+    (value <= lo + AT_FLOOR * (hi - lo)).then_some(limit)
 }
 
 #[cfg(test)]

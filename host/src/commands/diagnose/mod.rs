@@ -174,13 +174,10 @@ fn what_is_left(
     let current_where = current_alone
         .then(|| regime_shares::current_where(&traces))
         .flatten();
-    let samples = regime_shares::RegimeSamples::of(&traces);
     let named: Vec<Effect> = found.named().map(|(e, _)| e).collect();
-    let where_it_acts = naming::misfit_where_it_acts(
+    let where_it_acts = regime_shares::misfit_where_named_act(
+        &traces,
         &named,
-        |regime, channel| {
-            regime_shares::rmse_in(&traces, &samples, |t| t.of_channel(channel), regime)
-        },
         remainder::floor(found.holdout.noise, repeat_floor).0,
         current_noise.filter(|_| data.with_current),
     );

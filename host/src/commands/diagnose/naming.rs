@@ -31,7 +31,8 @@
 //! residual widens every deviation (asymmetric friction's `ka` before the bridge dead
 //! time beside it is added). Nor does the search pass it over for the next best: that is
 //! often its look-alike (a bridge dead time whose band the records do not pin, passed
-//! over, left a brush drop named beside asymmetric friction), so no name is given.
+//! over, left a brush drop named beside asymmetric friction), so no name is given (unless
+//! the fit took its form to its limit's, below).
 //!
 //! A third rule, [`misfit_where_it_acts`]: each catalogue entry names the operating regime
 //! where its form shows most distinctly (`EffectSpec::shows_in`: near standstill for the
@@ -48,8 +49,12 @@
 //! A fourth rule, look-alikes ([`super::found::LookAlike`], judged by the search): an
 //! effect added where an entry of another form passed the significance rule at the same
 //! step and predicted the held-out records about as well, and still does in the effect's
-//! place in the final model, is a partial stand-in (the records do not tell the two forms
-//! apart: a bridge dead time whose band they cannot tell from none, beside a brush drop).
+//! place in the final model (its own regime kept within [`OWN_REGIME_RATIO`] of the noise),
+//! is a partial stand-in (the records do not tell the two forms apart). Before it, the
+//! search takes an entry's limit in its place where the fit put the form there
+//! ([`super::found::at_limit`]: a bridge dead time whose band is at its floor is a brush
+//! drop): a dead time fitted to a brush drop, its band at the floor and unpinned, had
+//! left the brush drop unnamed.
 //!
 //! What no rule catches: a stand-in whose model reaches the floor everywhere with its
 //! parameters pinned while the true cause is not in the catalogue (a cause the records

@@ -5,7 +5,9 @@
 //! ([`super::remainder`]).
 
 use super::data::{peak, Trace};
+use super::naming::{self, MisfitWhereItActs};
 use motor_id_shared::model::effects::regime::{Regime, REGIMES};
+use motor_id_shared::model::effects::Effect;
 use motor_id_shared::model::effects::SignatureSample;
 use serde::Serialize;
 
@@ -195,6 +197,24 @@ pub(super) fn rmse_in<'t>(
         }
     }
     held.then(|| ((sse / n.max(1) as f64).sqrt(), n))
+}
+
+/// The effects of `named` whose own regime keeps the held-out misfit of `traces` (the speed
+/// against `speed_floor`, the current against `current_noise`;
+/// [`naming::misfit_where_it_acts`]).
+pub(super) fn misfit_where_named_act(
+    traces: &[Trace],
+    named: &[Effect],
+    speed_floor: f32,
+    current_noise: Option<f32>,
+) -> Vec<MisfitWhereItActs> {
+    let samples = RegimeSamples::of(traces);
+    naming::misfit_where_it_acts(
+        named,
+        |regime, channel| rmse_in(traces, &samples, |t| t.of_channel(channel), regime),
+        speed_floor,
+        current_noise,
+    )
 }
 
 /// `x` rounded to 1e-6 (0 when not finite), for the reports.

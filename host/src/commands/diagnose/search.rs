@@ -10,9 +10,10 @@
 use super::data::{Data, Scored};
 use super::effect_fit::with_effect;
 use super::first_round::{baseline_and_first_round, FirstRound};
-use super::found::{LookAlike, Search, StandingIn};
+use super::found::{at_limit, LookAlike, Search, StandingIn};
 use super::naming::unpinned_own;
 use super::parallel::in_parallel;
+use super::regime_shares::misfit_where_named_act;
 use super::search_context::{reduced, Context};
 use super::verdict::{predicts_better, significant, Holdout};
 use crate::fit::FitOptions;
@@ -86,6 +87,18 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     let Some(first) = first else {
         return Ok(found);
     };
+    // A form at its limit is the limit's entry, when that passed the rule too.
+    let first = match found.fit(first).and_then(|f| at_limit(first, f)) {
+        Some(limit)
+            if found.fit(limit).is_some_and(|s| {
+                found.significant(limit, s) && found.needed(limit) == Some(limit)
+            }) =>
+        {
+            say(format!("{} at its limit: {}", first.name(), limit.name()));
+            limit
+        }
+        _ => first,
+    };
     let first_fit = found
         .fit(first)
         .expect("every usable effect was scored")
@@ -157,7 +170,18 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             .enumerate()
             .min_by(|a, b| a.1 .1.holdout_joint.total_cmp(&b.1 .1.holdout_joint))
             .map(|(k, _)| k);
-        let Some(k) = best else { break };
+        let Some(mut k) = best else { break };
+        // A form at its limit is the limit's entry, when that passed the rule too.
+        let limit = at_limit(passing[k].0, &passing[k].1)
+            .and_then(|limit| passing.iter().position(|(e, _)| *e == limit));
+        if let Some(j) = limit {
+            say(format!(
+                "{} at its limit: {}",
+                passing[k].0.name(),
+                passing[j].0.name()
+            ));
+            k = j;
+        }
         let (effect, f) = passing.swap_remove(k);
         let rivals = passing
             .iter()
@@ -221,6 +245,8 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         fin = f;
     }
 
+    let (set, fin) = limits_taken(&cx, set, fin, without, &found.holdout, &say)?;
+
     // The chain reported: the forward steps while they agree with the final set, then the
     // models of the final set's prefixes refitted from the final fit, the last one the
     // final fit itself.
@@ -246,9 +272,42 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     Ok(found)
 }
 
+/// The final model `fin` of `set` with each effect whose fit has reached its limit's form
+/// ([`at_limit`]) swapped for the limit's entry (the model without it, the limit added and
+/// everything refitted), where that predicts the held-out records as well. The search takes
+/// the limit where it passes the rule at the same step; a refit after it can still move a
+/// dead time's band to its floor (a brush drop beside a current offset, whose dead time was
+/// added while the brush drop was not yet significant).
+fn limits_taken(
+    cx: &Context,
+    mut set: Vec<Effect>,
+    mut fin: Scored,
+    without: &[Effect],
+    holdout: &Holdout,
+    say: &dyn Fn(String),
+) -> Result<(Vec<Effect>, Scored)> {
+    for k in 0..set.len() {
+        let Some(limit) = at_limit(set[k], &fin).filter(|l| !set.contains(l)) else {
+            continue;
+        };
+        let rest = reduced(&set, set[k], without);
+        let start = cx.only(&fin.fit.result.params, &rest, &set[k..=k]);
+        let swapped = cx.add(&cx.spec_of(&rest, &start)?, limit, &start)?;
+        if !predicts_better(swapped.holdout_joint, fin.holdout_joint, holdout) {
+            say(format!("{} at its limit: {}", set[k].name(), limit.name()));
+            set[k] = limit;
+            fin = swapped;
+        }
+    }
+    Ok((set, fin))
+}
+
 /// The look-alikes `met` at the search's steps that hold on the final model `fin` of `set`:
 /// the effect swapped for its look-alike (the model without it, the look-alike added and
-/// everything refitted) predicts the held-out records as well. A step's fits, made before
+/// everything refitted) predicts the held-out records as well, and the look-alike passes
+/// the rule a named effect must where its form shows ([`misfit_where_named_act`]): a brush
+/// drop in a bridge dead time's place that leaves the current near standstill at 2-5 times
+/// its noise is no look-alike of it (a dead time beside winding heating went unnamed). A step's fits, made before
 /// the later effects joined, can be far from the final model's: a bridge dead time beside
 /// asymmetric friction tied with a brush drop at its step (1.79 against 1.79), where the
 /// final model with it predicts to 0.63 (`tests/tests/diagnose_reference.rs`).
@@ -271,10 +330,19 @@ fn confirmed(
         let model = cx.spec_of(&rest, &start)?;
         cx.add(&model, l.alike, &start)
     });
+    let current_noise = cx
+        .data
+        .holdout_current_noise()?
+        .filter(|_| cx.data.with_current);
     let mut out = Vec::new();
     for (l, s) in pending.into_iter().zip(swapped) {
         let s = s?;
-        if !predicts_better(s.holdout_joint, fin.holdout_joint, holdout) {
+        // Judged as a named effect would be where its form shows (against the noise: the
+        // run-to-run floor comes after the search).
+        let traces = cx.data.holdout_traces(&s.fit.result.params)?;
+        let form_fits =
+            misfit_where_named_act(&traces, &[l.alike], holdout.noise, current_noise).is_empty();
+        if form_fits && !predicts_better(s.holdout_joint, fin.holdout_joint, holdout) {
             out.push(LookAlike {
                 effect_rmse: fin.holdout_joint,
                 alike_rmse: s.holdout_joint,

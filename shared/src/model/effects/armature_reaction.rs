@@ -32,6 +32,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         at: |x| x.current * x.current.abs(),
     }),
     shows_in: Some(regime::ACCELERATION),
+    limit: None,
     role: Role::HeldInputs(held),
 };
 

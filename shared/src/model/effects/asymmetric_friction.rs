@@ -40,6 +40,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         at: |x| -((x.omega.abs() > 0.02 * x.omega_max) as i32 as f64),
     }),
     shows_in: Some(regime::STANDSTILL),
+    limit: None,
     role: Role::FrictionLaw,
 };
 

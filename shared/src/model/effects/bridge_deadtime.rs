@@ -7,7 +7,7 @@
 //! it (no dead zone at zero current).
 
 use super::regime;
-use super::entry::{ids, EffectBounds, EffectSpec, Held, HeldInputs, Role, Signature, StepState};
+use super::entry::{ids, EffectBounds, EffectSpec, Held, HeldInputs, Limit, Role, Signature, StepState};
 use crate::param_id::{ParamId, ParamSpec};
 
 /// Its parameters.
@@ -51,6 +51,10 @@ pub const SPEC: EffectSpec = EffectSpec {
         at: |x| -(x.current / (0.05 * x.current_max).max(1e-12)).clamp(-1.0, 1.0),
     }),
     shows_in: Some(regime::STANDSTILL),
+    limit: Some(Limit {
+        entry: "brush_drop",
+        param: ParamId::Ib,
+    }),
     role: Role::HeldInputs(held),
 };
 

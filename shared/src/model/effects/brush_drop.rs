@@ -31,6 +31,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         at: |x| -x.current.signum() * (x.current.abs() > 0.02 * x.current_max) as i32 as f64,
     }),
     shows_in: Some(regime::STANDSTILL),
+    limit: None,
     role: Role::CurrentDeadZone,
 };
 

@@ -65,6 +65,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     // in the residual's order spectrum instead.
     signature: None,
     shows_in: Some(regime::LOW_SPEED),
+    limit: None,
     role: Role::HeldInputs(held),
 };
 

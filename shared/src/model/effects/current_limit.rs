@@ -57,6 +57,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         },
     }),
     shows_in: Some(regime::START_UP),
+    limit: None,
     role: Role::HeldInputs(held),
 };
 

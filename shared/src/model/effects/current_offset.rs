@@ -32,6 +32,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     // No mark on the speed: it shows in the current residual as a constant.
     signature: None,
     shows_in: Some(regime::STANDSTILL),
+    limit: None,
     role: Role::Reading,
 };
 

@@ -33,8 +33,24 @@ pub struct EffectSpec {
     /// misfit there near the floor on every channel, else it only stands in for a cause of
     /// another form (docs/ARCHITECTURE.md, the diagnosis's naming rules).
     pub shows_in: Option<Regime>,
+    /// The entry whose form this one's becomes as one of its parameters falls to the floor
+    /// of its search bounds, if any ([`Limit`]).
+    pub limit: Option<Limit>,
     /// Where it acts in the model step: the simulator takes it from here.
     pub role: Role,
+}
+
+/// An entry's form tends to another entry's as its parameter `param` falls to the floor of
+/// its search bounds: a bridge dead time whose band `ib` vanishes is a brush drop
+/// (`-vdt clamp(i / ib, -1, 1)` tends to `-vdt sign(i)`). A fit that puts `param` there
+/// shows only the limit's form, which the diagnosis then names where it fits as well
+/// (docs/ARCHITECTURE.md, the diagnosis's naming rules).
+#[derive(Clone, Copy, Debug)]
+pub struct Limit {
+    /// The limit's entry, by name.
+    pub entry: &'static str,
+    /// The parameter whose floor is the limit.
+    pub param: ParamId,
 }
 
 /// Where an effect acts in the model step ([`crate::model::sim`]).

@@ -17,7 +17,8 @@ pub mod friction;
 pub mod regime;
 
 pub use entry::{
-    EffectBounds, EffectSpec, Held, HeldInputs, Role, Scales, Signature, SignatureSample, StepState,
+    EffectBounds, EffectSpec, Held, HeldInputs, Limit, Role, Scales, Signature, SignatureSample,
+    StepState,
 };
 
 use crate::capacity::MODEL_PARAMS;
@@ -101,6 +102,13 @@ impl Effect {
     /// The effect this one extends (its parameters are part of this one's model).
     pub fn parent(self) -> Option<Effect> {
         self.spec().extends.and_then(Effect::from_name)
+    }
+
+    /// The entry whose form this one's becomes as its [`Limit`] parameter falls to its
+    /// search floor, with that parameter.
+    pub fn limit(self) -> Option<(Effect, ParamId)> {
+        let l = self.spec().limit?;
+        Effect::from_name(l.entry).map(|e| (e, l.param))
     }
 
     /// It acts on the current channel only (records without current cannot show it).
@@ -322,6 +330,17 @@ mod tests {
                 e.name()
             );
             assert!(e.parent().is_none_or(|p| p.parent().is_none()));
+            // A limit is another entry, reached through one of this entry's own parameters.
+            assert_eq!(
+                e.spec().limit.is_some(),
+                e.limit().is_some(),
+                "{}",
+                e.name()
+            );
+            if let Some((limit, param)) = e.limit() {
+                assert_ne!(limit, e);
+                assert!(e.params().contains(&param), "{}", e.name());
+            }
         }
     }
 

@@ -33,6 +33,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         at: |x| -x.omega * x.omega.abs(),
     }),
     shows_in: Some(regime::HIGH_SPEED),
+    limit: None,
     role: Role::SpeedLoad,
 };
 

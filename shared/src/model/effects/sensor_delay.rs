@@ -33,6 +33,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         at: |x| -x.accel,
     }),
     shows_in: Some(regime::TRANSIENTS),
+    limit: None,
     role: Role::ReadingDelay,
 };
 

@@ -62,6 +62,7 @@ pub const SPEC: EffectSpec = EffectSpec {
         },
     }),
     shows_in: Some(regime::STANDSTILL),
+    limit: None,
     role: Role::FrictionLaw,
 };
 

@@ -57,6 +57,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     // Found by the order spectrum of the residual against rotor angle, not a correlation.
     signature: None,
     shows_in: None,
+    limit: None,
     role: Role::Reading,
 };
 

@@ -74,6 +74,7 @@ pub const SPEC: EffectSpec = EffectSpec {
     // drift of `ra` from window to window instead.
     signature: None,
     shows_in: None,
+    limit: None,
     role: Role::HeldInputs(held),
 };
 
