@@ -245,7 +245,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         fin = f;
     }
 
-    let (set, fin) = limits_taken(&cx, set, fin, without, &found.holdout, &say)?;
+    let (set, fin) = limits_taken(&cx, set, fin, &usable, without, &found.holdout, &say)?;
 
     // The chain reported: the forward steps while they agree with the final set, then the
     // models of the final set's prefixes refitted from the final fit, the last one the
@@ -273,7 +273,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
 }
 
 /// The final model `fin` of `set` with each effect whose fit has reached its limit's form
-/// ([`at_limit`]) swapped for the limit's entry (the model without it, the limit added and
+/// ([`at_limit`]) swapped for the limit's entry when that is `usable` (the model without it, the limit added and
 /// everything refitted), where that predicts the held-out records as well. The search takes
 /// the limit where it passes the rule at the same step; a refit after it can still move a
 /// dead time's band to its floor (a brush drop beside a current offset, whose dead time was
@@ -282,12 +282,14 @@ fn limits_taken(
     cx: &Context,
     mut set: Vec<Effect>,
     mut fin: Scored,
+    usable: &[Effect],
     without: &[Effect],
     holdout: &Holdout,
     say: &dyn Fn(String),
 ) -> Result<(Vec<Effect>, Scored)> {
     for k in 0..set.len() {
-        let Some(limit) = at_limit(set[k], &fin).filter(|l| !set.contains(l)) else {
+        let limit = at_limit(set[k], &fin).filter(|l| usable.contains(l) && !set.contains(l));
+        let Some(limit) = limit else {
             continue;
         };
         let rest = reduced(&set, set[k], without);
