@@ -14,7 +14,6 @@ use motor_id_shared::fit::identify::WIDER_GAIN;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::fit::sums::pooled_sigma;
 use motor_id_shared::model::effects::Effect;
-use motor_id_shared::ModelParams;
 
 /// The baseline fitted on the training records of `data` (the user's problem `spec`, the
 /// search's quiet options), and the [`FirstRound`] from it, the catalogue less `without`;
@@ -68,55 +67,6 @@ pub(super) struct FirstRound<'a> {
     pub(super) usable: Vec<Effect>,
     pub(super) scored: Vec<(Effect, Scored)>,
     pub(super) left_out_parents: Vec<(Effect, Scored)>,
-}
-
-/// Each extension in `scored` (static or asymmetric friction) whose fit from the baseline
-/// ended worse on the training records than the entry it extends, fitted again from that
-/// entry's optimum (its own parameters off: `ts = 0`, `ka = 0`, the model the parent's),
-/// the better of the two kept. Its model holds the parent's, so a fit that ends worse
-/// stopped in another basin: on the lab motor's records static friction's fit from the
-/// baseline ended at 3.91 rad/s where the Coulomb friction's reached 3.26
-/// (docs/measurements/lab-motor.md), and an effect is not rejected for a fit that did not
-/// converge.
-fn nested_from_parents(
-    cx: &Context,
-    spec: &ProblemSpec,
-    scored: &mut [(Effect, Scored)],
-    say: &(impl Fn(String) + Sync),
-) -> Result<()> {
-    let train_fitness = |s: &Scored| s.fit.result.cost.fitness();
-    let stuck: Vec<(usize, ModelParams)> = scored
-        .iter()
-        .enumerate()
-        .filter_map(|(k, (e, s))| {
-            let parent = e.parent()?;
-            let (_, p) = scored.iter().find(|(q, _)| *q == parent)?;
-            (train_fitness(s) > train_fitness(p)).then(|| {
-                let mut start = p.fit.result.params;
-                if let Some(first) = e.params().first() {
-                    start.set(*first, 0.0);
-                }
-                (k, start)
-            })
-        })
-        .collect();
-    let refits = in_parallel(stuck.len(), |j| {
-        let (k, start) = &stuck[j];
-        let effect = scored[*k].0;
-        say(format!(
-            "fitting {} again from {}'s fit",
-            effect.name(),
-            effect.parent().map_or("", |p| p.name())
-        ));
-        cx.refit_from(spec, effect, start)
-    });
-    for ((k, _), refit) in stuck.iter().zip(refits) {
-        let refit = refit?;
-        if train_fitness(&refit) < train_fitness(&scored[*k].1) {
-            scored[*k].1 = refit;
-        }
-    }
-    Ok(())
 }
 
 /// The [`FirstRound`] from the baseline fit `baseline` (a function of its parameters alone).
@@ -178,7 +128,6 @@ fn first_round<'a>(
     for (effect, f) in usable.iter().zip(fits) {
         scored.push((*effect, f?));
     }
-    nested_from_parents(&cx, spec, &mut scored, say)?;
     scored.sort_by(|a, b| a.1.holdout_joint.total_cmp(&b.1.holdout_joint));
     let mut left_out_parents: Vec<(Effect, Scored)> = Vec::new();
     for p in usable.iter().filter_map(|e| e.parent()) {

@@ -73,19 +73,6 @@ impl Context<'_> {
             .score(fit_effect(self.data, &self.quiet, &s, effect, &self.peaks)?)
     }
 
-    /// `effect` added to the model `model`, fitted by least squares alone from `start` (a
-    /// point already in its basin), and scored.
-    pub(super) fn refit_from(
-        &self,
-        model: &ProblemSpec,
-        effect: Effect,
-        start: &ModelParams,
-    ) -> Result<Scored> {
-        let s = with_effect(model, effect, start, &self.scales, &self.peaks)?;
-        self.data
-            .score(refit_from(&self.data.train, &self.quiet, &s, start)?)
-    }
-
     /// The model of `set` fitted on the training records from `start`, and scored.
     pub(super) fn refit(&self, set: &[Effect], start: &ModelParams) -> Result<Scored> {
         let spec = self.spec_of(set, start)?;
