@@ -273,8 +273,9 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
 }
 
 /// The final model `fin` of `set` with each effect whose fit has reached its limit's form
-/// ([`at_limit`]) swapped for the limit's entry when that is `usable` (the model without it, the limit added and
-/// everything refitted), where that predicts the held-out records as well. The search takes
+/// ([`at_limit`]) swapped for the limit's entry when that is `usable` (the model without
+/// it, the limit added and everything refitted), where that predicts the held-out records
+/// as well. The search takes
 /// the limit where it passes the rule at the same step; a refit after it can still move a
 /// dead time's band to its floor (a brush drop beside a current offset, whose dead time was
 /// added while the brush drop was not yet significant).
@@ -307,10 +308,10 @@ fn limits_taken(
 /// The look-alikes `met` at the search's steps that hold on the final model `fin` of `set`:
 /// the effect swapped for its look-alike (the model without it, the look-alike added and
 /// everything refitted) predicts the held-out records as well, and the look-alike passes
-/// the rule a named effect must where its form shows ([`misfit_where_named_act`]): a brush
-/// drop in a bridge dead time's place that leaves the current near standstill at 2-5 times
-/// its noise is no look-alike of it (a dead time beside winding heating went unnamed). A step's fits, made before
-/// the later effects joined, can be far from the final model's: a bridge dead time beside
+/// the rule a named effect must where its form shows ([`misfit_where_named_act`], against
+/// the noise: the run-to-run floor comes after the search): a brush drop in a bridge dead
+/// time's place that left the current near standstill at 2-5 times its noise would be no
+/// look-alike of it. A step's fits, made before the later effects joined, can be far from the final model's: a bridge dead time beside
 /// asymmetric friction tied with a brush drop at its step (1.79 against 1.79), where the
 /// final model with it predicts to 0.63 (`tests/tests/diagnose_reference.rs`).
 fn confirmed(
