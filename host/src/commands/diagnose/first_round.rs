@@ -97,6 +97,7 @@ fn first_round<'a>(
             .holdout_noise()?
             .min(pooled_sigma(cleaned.iter().map(Vec::as_slice))),
         signal_rms: data.holdout_rms(),
+        current_noise: data.holdout_current_noise()?,
     };
     let scales = data.scales(&base_params);
     let cx = Context {

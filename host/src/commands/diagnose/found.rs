@@ -135,6 +135,7 @@ mod tests {
     const HOLDOUT: Holdout = Holdout {
         noise: 1.0,
         signal_rms: 100.0,
+        current_noise: None,
     };
 
     #[test]

@@ -108,7 +108,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let found = search::search(&data, &a.fit, &a.without)?;
     let after = found.last();
     let repeats = repeats.report(&data, &after.fit.result.params)?;
-    let current_noise = data.holdout_current_noise()?;
+    let current_noise = found.holdout.current_noise;
     let left = what_is_left(&data, &found, &a.fit, &repeats, current_noise)?;
     let warnings = data.foreign_holdouts(&found.baseline)?;
     for w in &warnings {

@@ -87,17 +87,14 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     let Some(first) = first else {
         return Ok(found);
     };
-    // A form at its limit is the limit's entry, when that passed the rule too.
-    let first = match found.fit(first).and_then(|f| at_limit(first, f)) {
-        Some(limit)
-            if found.fit(limit).is_some_and(|s| {
-                found.significant(limit, s) && found.needed(limit) == Some(limit)
-            }) =>
-        {
-            say(format!("{} at its limit: {}", first.name(), limit.name()));
-            limit
-        }
-        _ => first,
+    let passed_first = |e: Effect| {
+        found
+            .fit(e)
+            .is_some_and(|s| found.significant(e, s) && found.needed(e) == Some(e))
+    };
+    let first = match found.fit(first) {
+        Some(fit) => as_shown(first, fit, passed_first, &say),
+        None => first,
     };
     let first_fit = found
         .fit(first)
@@ -170,18 +167,13 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             .enumerate()
             .min_by(|a, b| a.1 .1.holdout_joint.total_cmp(&b.1 .1.holdout_joint))
             .map(|(k, _)| k);
-        let Some(mut k) = best else { break };
-        // A form at its limit is the limit's entry, when that passed the rule too.
-        let limit = at_limit(passing[k].0, &passing[k].1)
-            .and_then(|limit| passing.iter().position(|(e, _)| *e == limit));
-        if let Some(j) = limit {
-            say(format!(
-                "{} at its limit: {}",
-                passing[k].0.name(),
-                passing[j].0.name()
-            ));
-            k = j;
-        }
+        let Some(best) = best else { break };
+        let passed = |e: Effect| passing.iter().any(|(p, _)| *p == e);
+        let shown = as_shown(passing[best].0, &passing[best].1, passed, &say);
+        let k = passing
+            .iter()
+            .position(|(e, _)| *e == shown)
+            .expect("the best effect or its limit passed");
         let (effect, f) = passing.swap_remove(k);
         let rivals = passing
             .iter()
@@ -272,13 +264,31 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     Ok(found)
 }
 
+/// `effect`, the search's choice at a step with its fit `fit`, as the records show it: the
+/// limit's entry in its place where the fit reached that form ([`at_limit`]) and the limit
+/// `passed` the significance rule at the same step.
+fn as_shown(
+    effect: Effect,
+    fit: &Scored,
+    passed: impl Fn(Effect) -> bool,
+    say: &dyn Fn(String),
+) -> Effect {
+    match at_limit(effect, fit).filter(|l| passed(*l)) {
+        Some(limit) => {
+            say(format!("{} at its limit: {}", effect.name(), limit.name()));
+            limit
+        }
+        None => effect,
+    }
+}
+
 /// The final model `fin` of `set` with each effect whose fit has reached its limit's form
 /// ([`at_limit`]) swapped for the limit's entry when that is `usable` (the model without
 /// it, the limit added and everything refitted), where that predicts the held-out records
-/// as well. The search takes
-/// the limit where it passes the rule at the same step; a refit after it can still move a
-/// dead time's band to its floor (a brush drop beside a current offset, whose dead time was
-/// added while the brush drop was not yet significant).
+/// as well. The search takes the limit where it passes the rule at the same step
+/// ([`as_shown`]); a refit after it can still move a dead time's band to its floor (a brush
+/// drop beside a current offset, whose dead time was added while the brush drop was not yet
+/// significant).
 fn limits_taken(
     cx: &Context,
     mut set: Vec<Effect>,
@@ -311,9 +321,10 @@ fn limits_taken(
 /// the rule a named effect must where its form shows ([`misfit_where_named_act`], against
 /// the noise: the run-to-run floor comes after the search): a brush drop in a bridge dead
 /// time's place that left the current near standstill at 2-5 times its noise would be no
-/// look-alike of it. A step's fits, made before the later effects joined, can be far from the final model's: a bridge dead time beside
-/// asymmetric friction tied with a brush drop at its step (1.79 against 1.79), where the
-/// final model with it predicts to 0.63 (`tests/tests/diagnose_reference.rs`).
+/// look-alike of it. A step's fits, made before the later effects joined, can be far from
+/// the final model's: a bridge dead time beside asymmetric friction tied with a brush drop
+/// at its step (1.79 against 1.79), where the final model with it predicts to 0.63
+/// (`tests/tests/diagnose_reference.rs`).
 fn confirmed(
     cx: &Context,
     set: &[Effect],
@@ -333,10 +344,7 @@ fn confirmed(
         let model = cx.spec_of(&rest, &start)?;
         cx.add(&model, l.alike, &start)
     });
-    let current_noise = cx
-        .data
-        .holdout_current_noise()?
-        .filter(|_| cx.data.with_current);
+    let current_noise = holdout.current_noise.filter(|_| cx.data.with_current);
     let mut out = Vec::new();
     for (l, s) in pending.into_iter().zip(swapped) {
         let s = s?;

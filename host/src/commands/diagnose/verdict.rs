@@ -61,6 +61,9 @@ pub struct Holdout {
     pub noise: f32,
     /// RMS of the measured speed [rad/s].
     pub signal_rms: f32,
+    /// Measured current noise [A], when the records hold a current (judged only where
+    /// current is fitted).
+    pub current_noise: Option<f32>,
 }
 
 /// True when `candidate` is a real improvement over `reference` (module doc).
@@ -104,6 +107,7 @@ mod tests {
         Holdout {
             noise,
             signal_rms: 100.0,
+            current_noise: None,
         }
     }
 
@@ -133,7 +137,8 @@ mod tests {
             &tiny,
             &Holdout {
                 noise: 1e-5,
-                signal_rms: 100.0
+                signal_rms: 100.0,
+                current_noise: None,
             }
         ));
     }
