@@ -10,6 +10,9 @@
 //! crosses zero; break-away: where the held-rotor current's exact exponential reaches the
 //! friction), then holds or turns for the rest of the step: on the coarse steps of a
 //! commissioning record, events placed at step boundaries biased B and tc by up to 8 %.
+//! A current that falls through zero under a brush drop likewise flows on the other way
+//! from its instant in the step, unless the brushes hold it (held to the step's end, a
+//! reversed current lagged a step through its whole transient).
 //! Tacho effects (delay, ripple) act on the reading only.
 //! The state is kept as a compensated (two-sum) f32 pair so that slow modes at high sample
 //! rates do not stall on f32 rounding.
@@ -417,6 +420,8 @@ impl Simulator {
     }
 }
 
+#[path = "sim_brush_events.rs"]
+mod brush_events;
 #[path = "sim_effect_step.rs"]
 mod effect_step;
 #[path = "sim_friction_events.rs"]

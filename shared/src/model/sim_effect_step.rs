@@ -43,14 +43,20 @@ fn dead_zone_opposition(
     Some(opposition(direction))
 }
 
-/// After a step with an opposing dead-zone term: a state that crossed zero sticks there.
-fn stick_on_crossing(before: f32, opposition: f32, state: &mut Compensated, stuck: &mut bool) {
+/// Whether a state that moved over a step with an opposing dead-zone term went from `before`
+/// to `after` through zero (or to it).
+fn crossed_zero(before: f32, opposition: f32, after: f32) -> bool {
     let moving_dir = if before != 0.0 {
         sign(before)
     } else {
         sign(opposition)
     };
-    if opposition != 0.0 && sign(state.hi) != moving_dir {
+    opposition != 0.0 && sign(after) != moving_dir
+}
+
+/// After a step with an opposing dead-zone term: a state that crossed zero sticks there.
+fn stick_on_crossing(before: f32, opposition: f32, state: &mut Compensated, stuck: &mut bool) {
+    if crossed_zero(before, opposition, state.hi) {
         state.set(0.0);
         *stuck = true;
     }
@@ -127,8 +133,8 @@ impl Simulator {
         if shaft_moves {
             self.speed_load_over_the_step(current_moves);
         }
-        if current_moves && vb > 0.0 {
-            stick_on_crossing(i0, brush, &mut self.current, &mut self.current_stuck);
+        if current_moves && vb > 0.0 && crossed_zero(i0, brush, self.current.hi) {
+            self.current_through_zero_within_step(i0, w0, volts + brush, load, shaft_moves);
         }
         if shaft_moves && self.friction {
             let w1 = self.omega.hi;

@@ -10,7 +10,7 @@ impl Simulator {
     /// The electrical step with the rotor at rest over `share` of the step (0 to 1), from
     /// `i0` with `volts` held: `i(t) - i_ss = (i0 - i_ss) E^(t/dt)`, `E = 1 + ae`, the exact
     /// first-order response ([`Discrete::ae`]) over part of the step.
-    fn held_rotor_current(&self, i0: f32, volts: f32, share: f32) -> f32 {
+    pub(super) fn held_rotor_current(&self, i0: f32, volts: f32, share: f32) -> f32 {
         let (ae, ge) = (self.disc.ae, self.disc.ge);
         if ae.abs() < 1e-6 {
             // La/Ra far beyond the step: the current ramps.
