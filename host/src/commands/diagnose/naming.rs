@@ -108,7 +108,8 @@ impl MisfitWhereItActs {
 }
 
 /// The named effects (`named`) whose own regime keeps the final model's held-out misfit
-/// above [`OWN_REGIME_RATIO`] times the floor on a channel it acts on: `in_regime` gives
+/// above `ratio` times the floor on a channel it acts on (the rule's [`OWN_REGIME_RATIO`];
+/// [`super::remainder::UNEXPLAINED_RATIO`] where the search tells two forms apart): `in_regime` gives
 /// `(rmse in the regime, samples)` of a channel's held-out residual for a regime; the speed
 /// is judged against `speed_floor`, the current against its noise. An effect's worst
 /// channel.
@@ -117,6 +118,7 @@ pub fn misfit_where_it_acts(
     in_regime: impl Fn(&Regime, &'static str) -> Option<(f64, usize)>,
     speed_floor: f32,
     current_noise: Option<f32>,
+    ratio: f32,
 ) -> Vec<MisfitWhereItActs> {
     let mut out = Vec::new();
     for &effect in named {
@@ -138,7 +140,7 @@ pub fn misfit_where_it_acts(
                 (n >= OWN_REGIME_SAMPLES).then_some((channel, rmse as f32 / floor))
             })
             .max_by(|a, b| a.1.total_cmp(&b.1));
-        if let Some((channel, over_floor)) = worst.filter(|w| w.1 > OWN_REGIME_RATIO) {
+        if let Some((channel, over_floor)) = worst.filter(|w| w.1 > ratio) {
             out.push(MisfitWhereItActs {
                 effect,
                 regime: regime.name,
@@ -316,7 +318,13 @@ mod tests {
             }
         };
         // The current's misfit there twice its noise (0.1 A against 0.05): its worst channel.
-        let found = misfit_where_it_acts(&named, at(1.1, 0.1, 1000), 1.0, Some(0.05));
+        let found = misfit_where_it_acts(
+            &named,
+            at(1.1, 0.1, 1000),
+            1.0,
+            Some(0.05),
+            OWN_REGIME_RATIO,
+        );
         assert_eq!(found.len(), 1, "{found:?}");
         assert_eq!(found[0].effect, Effect::BrushDrop);
         assert_eq!(found[0].channel, "current");
@@ -327,18 +335,42 @@ mod tests {
             found[0].why()
         );
         // Within 1.5 times the floor on both: named.
-        assert!(misfit_where_it_acts(&named, at(1.4, 0.07, 1000), 1.0, Some(0.05)).is_empty());
+        assert!(misfit_where_it_acts(
+            &named,
+            at(1.4, 0.07, 1000),
+            1.0,
+            Some(0.05),
+            OWN_REGIME_RATIO
+        )
+        .is_empty());
         // The speed's misfit there over the rule, without current.
-        let speed = misfit_where_it_acts(&named, at(1.6, 0.0, 1000), 1.0, None);
+        let speed = misfit_where_it_acts(&named, at(1.6, 0.0, 1000), 1.0, None, OWN_REGIME_RATIO);
         assert_eq!(speed[0].channel, "speed");
         // Too few samples in the regime to judge.
-        assert!(misfit_where_it_acts(&named, at(3.0, 0.3, 199), 1.0, Some(0.05)).is_empty());
+        assert!(
+            misfit_where_it_acts(&named, at(3.0, 0.3, 199), 1.0, Some(0.05), OWN_REGIME_RATIO)
+                .is_empty()
+        );
         // A current sensor's offset is judged on the current only: the speed's misfit near
         // standstill is not its doing.
         let offset = [Effect::CurrentOffset];
-        assert!(misfit_where_it_acts(&offset, at(3.0, 0.05, 1000), 1.0, Some(0.05)).is_empty());
+        assert!(misfit_where_it_acts(
+            &offset,
+            at(3.0, 0.05, 1000),
+            1.0,
+            Some(0.05),
+            OWN_REGIME_RATIO
+        )
+        .is_empty());
         assert_eq!(
-            misfit_where_it_acts(&offset, at(1.0, 0.1, 1000), 1.0, Some(0.05))[0].channel,
+            misfit_where_it_acts(
+                &offset,
+                at(1.0, 0.1, 1000),
+                1.0,
+                Some(0.05),
+                OWN_REGIME_RATIO
+            )[0]
+            .channel,
             "current"
         );
     }

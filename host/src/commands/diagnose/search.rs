@@ -13,7 +13,7 @@ use super::first_round::{baseline_and_first_round, FirstRound};
 use super::found::{at_limit, LookAlike, Search, StandingIn};
 use super::naming::unpinned_own;
 use super::parallel::in_parallel;
-use super::regime_shares::misfit_where_named_act;
+use super::regime_shares::{misfit_where_named_act, told_apart_where_it_acts};
 use super::search_context::{reduced, Context};
 use super::verdict::{predicts_better, significant, Holdout};
 use crate::fit::FitOptions;
@@ -321,7 +321,8 @@ fn limits_taken(
 /// the rule a named effect must where its form shows ([`misfit_where_named_act`], against
 /// the noise: the run-to-run floor comes after the search): a brush drop in a bridge dead
 /// time's place that left the current near standstill at 2-5 times its noise would be no
-/// look-alike of it. A step's fits, made before the later effects joined, can be far from
+/// look-alike of it. Nor is one that leaves the effect's own regime unexplained where the
+/// effect keeps it within ([`told_apart_where_it_acts`]). A step's fits, made before the later effects joined, can be far from
 /// the final model's: a bridge dead time beside asymmetric friction tied with a brush drop
 /// at its step (1.79 against 1.79), where the final model with it predicts to 0.63
 /// (`tests/tests/diagnose_reference.rs`).
@@ -345,6 +346,10 @@ fn confirmed(
         cx.add(&model, l.alike, &start)
     });
     let current_noise = holdout.current_noise.filter(|_| cx.data.with_current);
+    let final_traces = match pending.is_empty() {
+        true => Vec::new(),
+        false => cx.data.holdout_traces(&fin.fit.result.params)?,
+    };
     let mut out = Vec::new();
     for (l, s) in pending.into_iter().zip(swapped) {
         let s = s?;
@@ -353,7 +358,15 @@ fn confirmed(
         let traces = cx.data.holdout_traces(&s.fit.result.params)?;
         let form_fits =
             misfit_where_named_act(&traces, &[l.alike], holdout.noise, current_noise).is_empty();
-        if form_fits && !predicts_better(s.holdout_joint, fin.holdout_joint, holdout) {
+        let told_apart = told_apart_where_it_acts(
+            &final_traces,
+            &traces,
+            l.effect,
+            holdout.noise,
+            current_noise,
+        );
+        if form_fits && !told_apart && !predicts_better(s.holdout_joint, fin.holdout_joint, holdout)
+        {
             out.push(LookAlike {
                 effect_rmse: fin.holdout_joint,
                 alike_rmse: s.holdout_joint,
