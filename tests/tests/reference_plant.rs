@@ -321,13 +321,18 @@ fn coulomb_friction_agrees_within_one_sample_of_stick_slip() {
 }
 
 #[test]
-fn brush_drop_agrees_within_one_sample_of_the_current_dead_zone() {
+fn brush_drop_agrees_within_a_tenth_of_a_sample_of_the_current_dead_zone() {
+    // The product passes the current through zero at its instant within the step, where
+    // the reference does on its substeps: 0.020 A and 0.016 rad/s apart, against one
+    // sample's change of 1.19 A and 0.73 rad/s. Held at zero to the step's end, the
+    // product's current lagged by a step at the reversal: 0.435 A and 0.297 rad/s apart.
     let e = Effects {
         vb: 1.5,
         ..Effects::default()
     };
     let p = pair(FAST, e, Some("brush_drop:vb=1.5"), "reversal");
-    p.check("brush_drop reversal", dead_zone_bound(&p.reference));
+    let (w, i) = dead_zone_bound(&p.reference);
+    p.check("brush_drop reversal", (0.1 * w, 0.1 * i));
 }
 
 #[test]
