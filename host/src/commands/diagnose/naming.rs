@@ -109,10 +109,10 @@ impl MisfitWhereItActs {
 
 /// The named effects (`named`) whose own regime keeps the final model's held-out misfit
 /// above `ratio` times the floor on a channel it acts on (the rule's [`OWN_REGIME_RATIO`];
-/// [`super::remainder::UNEXPLAINED_RATIO`] where the search tells two forms apart): `in_regime` gives
-/// `(rmse in the regime, samples)` of a channel's held-out residual for a regime; the speed
-/// is judged against `speed_floor`, the current against its noise. An effect's worst
-/// channel.
+/// [`super::remainder::UNEXPLAINED_RATIO`] where the search tells two forms apart):
+/// `in_regime` gives `(rmse in the regime, samples)` of a channel's held-out residual for a
+/// regime; the speed is judged against `speed_floor`, the current against its noise. An
+/// effect's worst channel.
 pub fn misfit_where_it_acts(
     named: &[Effect],
     in_regime: impl Fn(&Regime, &'static str) -> Option<(f64, usize)>,

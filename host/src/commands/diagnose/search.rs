@@ -322,10 +322,10 @@ fn limits_taken(
 /// the noise: the run-to-run floor comes after the search): a brush drop in a bridge dead
 /// time's place that left the current near standstill at 2-5 times its noise would be no
 /// look-alike of it. Nor is one that leaves the effect's own regime unexplained where the
-/// effect keeps it within ([`told_apart_where_it_acts`]). A step's fits, made before the later effects joined, can be far from
-/// the final model's: a bridge dead time beside asymmetric friction tied with a brush drop
-/// at its step (1.79 against 1.79), where the final model with it predicts to 0.63
-/// (`tests/tests/diagnose_reference.rs`).
+/// effect keeps it within ([`told_apart_where_it_acts`]). A step's fits, made before the
+/// later effects joined, can be far from the final model's: a bridge dead time beside
+/// asymmetric friction tied with a brush drop at its step (1.79 against 1.79), where the
+/// final model with it predicts to 0.63 (`tests/tests/diagnose_reference.rs`).
 fn confirmed(
     cx: &Context,
     set: &[Effect],
