@@ -317,14 +317,12 @@ mod tests {
                 Some((if channel == "speed" { speed } else { current }, n))
             }
         };
+        // Judged against a speed floor of 1 and the rule's ratio.
+        let acts = |named: &[Effect], regime, current_noise| {
+            misfit_where_it_acts(named, regime, 1.0, current_noise, OWN_REGIME_RATIO)
+        };
         // The current's misfit there twice its noise (0.1 A against 0.05): its worst channel.
-        let found = misfit_where_it_acts(
-            &named,
-            at(1.1, 0.1, 1000),
-            1.0,
-            Some(0.05),
-            OWN_REGIME_RATIO,
-        );
+        let found = acts(&named, at(1.1, 0.1, 1000), Some(0.05));
         assert_eq!(found.len(), 1, "{found:?}");
         assert_eq!(found[0].effect, Effect::BrushDrop);
         assert_eq!(found[0].channel, "current");
@@ -335,42 +333,17 @@ mod tests {
             found[0].why()
         );
         // Within 1.5 times the floor on both: named.
-        assert!(misfit_where_it_acts(
-            &named,
-            at(1.4, 0.07, 1000),
-            1.0,
-            Some(0.05),
-            OWN_REGIME_RATIO
-        )
-        .is_empty());
+        assert!(acts(&named, at(1.4, 0.07, 1000), Some(0.05)).is_empty());
         // The speed's misfit there over the rule, without current.
-        let speed = misfit_where_it_acts(&named, at(1.6, 0.0, 1000), 1.0, None, OWN_REGIME_RATIO);
-        assert_eq!(speed[0].channel, "speed");
+        assert_eq!(acts(&named, at(1.6, 0.0, 1000), None)[0].channel, "speed");
         // Too few samples in the regime to judge.
-        assert!(
-            misfit_where_it_acts(&named, at(3.0, 0.3, 199), 1.0, Some(0.05), OWN_REGIME_RATIO)
-                .is_empty()
-        );
+        assert!(acts(&named, at(3.0, 0.3, 199), Some(0.05)).is_empty());
         // A current sensor's offset is judged on the current only: the speed's misfit near
         // standstill is not its doing.
         let offset = [Effect::CurrentOffset];
-        assert!(misfit_where_it_acts(
-            &offset,
-            at(3.0, 0.05, 1000),
-            1.0,
-            Some(0.05),
-            OWN_REGIME_RATIO
-        )
-        .is_empty());
+        assert!(acts(&offset, at(3.0, 0.05, 1000), Some(0.05)).is_empty());
         assert_eq!(
-            misfit_where_it_acts(
-                &offset,
-                at(1.0, 0.1, 1000),
-                1.0,
-                Some(0.05),
-                OWN_REGIME_RATIO
-            )[0]
-            .channel,
+            acts(&offset, at(1.0, 0.1, 1000), Some(0.05))[0].channel,
             "current"
         );
     }
