@@ -5,7 +5,8 @@
 //! drive allows.
 //!
 //! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ]
-//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--verbose] [--only M (motor M
+//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--averaged (each record
+//! sample the mean of the drive's readings over its step)] [--verbose] [--only M (motor M
 //! of the run alone)]`
 
 use motor_id_shared::device::job::JobEnd;
@@ -32,6 +33,7 @@ fn main() {
     let adc_bits: u32 = option(&args, "--adc-bits").unwrap_or(12);
     let coulomb: f32 = option(&args, "--coulomb").unwrap_or(0.05);
     let verbose = args.iter().any(|a| a == "--verbose");
+    let averaged = args.iter().any(|a| a == "--averaged");
     // One motor of the run alone (its number, as the verbose lines give it).
     let only: Option<usize> = option(&args, "--only");
     let limits = Limits::DEFAULT;
@@ -71,7 +73,7 @@ fn main() {
         // The profile check's progress counts every simulation of the fit so far (search,
         // refinement, the analysis's Jacobian, the check); the report counts the first two.
         let mut checked = None;
-        let c = commission(plant, limits, 1, None, &mut |m| {
+        let c = commission(plant, limits, averaged, 1, None, &mut |m| {
             if let BoardMessage::Progress {
                 stage: JobStage::Check,
                 evaluations,
@@ -197,6 +199,9 @@ fn main() {
     println!(
         "motors {motors} (look like motors {like}), drive sampled at {rate} Hz, limits {limits:?}"
     );
+    if averaged {
+        println!("each record sample the mean of the drive's readings over its step");
+    }
     println!("trips {trips}; refusals {refusals:?}");
     println!(
         "all six pinned and within 3 %: whole box {:.1} %, motor-like {:.1} %",

@@ -41,6 +41,10 @@ pub enum Error {
     /// An effect that this build's simulator does not hold is on (a board simulates the
     /// five motor parameters and Coulomb friction; see `crate::capacity`).
     EffectNotInBuild(ParamId),
+    /// A record's readings are means over its sample step, which this build, or the model
+    /// with these effects, does not simulate (the host simulates them with no effect but
+    /// Coulomb friction; see `crate::model::step_mean`).
+    AveragedReadingsNotModelled,
 }
 
 impl fmt::Display for Error {
@@ -79,6 +83,9 @@ impl fmt::Display for Error {
                 f,
                 "effect parameter {} is not simulated by this build",
                 p.name()
+            ),
+            Error::AveragedReadingsNotModelled => f.write_str(
+                "readings averaged over the sample step are simulated on the host only, with no effect but Coulomb friction",
             ),
         }
     }

@@ -79,6 +79,7 @@ impl Owned {
             current: with_current.then_some(&self.current[..]),
             load: with_load.then_some(&self.tl[..]),
             coast_from: self.coast_from,
+            averaged: 1,
         }
     }
 

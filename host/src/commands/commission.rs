@@ -115,7 +115,7 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
     // Ctrl-C: the virtual board hears it as the host's abort.
     let interrupted = crate::interrupt::take_over();
     let bar = FitProgress::new(a.quiet);
-    let outcome = commission(plant, limits, a.seed, Some(interrupted), &mut |m| {
+    let outcome = commission(plant, limits, false, a.seed, Some(interrupted), &mut |m| {
         if let BoardMessage::Planned(plan) = m {
             if !a.quiet {
                 bar.println(&plan_text(plan));

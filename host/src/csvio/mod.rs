@@ -55,6 +55,7 @@ impl OwnedRecord {
             current: self.current.as_deref().filter(|_| use_current),
             load: self.load.as_deref(),
             coast_from: self.coast_from,
+            averaged: 1,
         }
     }
 

@@ -24,6 +24,9 @@ pub struct Bench<'a, D, L, W> {
     pub limits: Limits,
     /// Current sensor offset subtracted from every reading [A].
     pub current_offset: f32,
+    /// Each record sample the mean of the drive's readings over its step, not the reading
+    /// at its instant ([`crate::device::experiment::record`]).
+    pub averaged: bool,
     dt: f32,
     samples: u32,
     progress_every: u32,
@@ -41,6 +44,7 @@ impl<'a, D: Drive, L: Link, W: Watchdog> Bench<'a, D, L, W> {
             watchdog,
             limits,
             current_offset: 0.0,
+            averaged: false,
             dt,
             samples: 0,
             progress_every: if every >= 1.0 { every as u32 } else { 1 },

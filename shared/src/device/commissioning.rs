@@ -20,10 +20,12 @@ use crate::wire::protocol::{BoardMessage, JobStage, Plan, Refusal};
 /// The probe, the design and the records of a commissioning, into `store`, within `limits`:
 /// the plan is sent on the link before the records (and returned). A trip, a sensor fault,
 /// a motor the probe refuses, or an abort stop the drive and end it (the caller reports it).
-/// The drive is stopped at the end in every case.
+/// The drive is stopped at the end in every case. With `averaged`, each record sample is the
+/// mean of the drive's readings over its step ([`crate::model::step_mean`]).
 pub fn run_experiment<const N: usize>(
     store: &mut RecordStore<N>,
     limits: &Limits,
+    averaged: bool,
     link: &mut impl Link,
     drive: &mut impl Drive,
     watchdog: &mut impl Watchdog,
@@ -31,7 +33,9 @@ pub fn run_experiment<const N: usize>(
     if !limits.usable() {
         return Err(JobEnd::Refused(Refusal::BadLimits));
     }
-    let result = probe_and_record(&mut Bench::new(drive, link, watchdog, *limits), store);
+    let mut bench = Bench::new(drive, link, watchdog, *limits);
+    bench.averaged = averaged;
+    let result = probe_and_record(&mut bench, store);
     drive.stop();
     result
 }

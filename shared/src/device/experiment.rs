@@ -4,12 +4,15 @@
 //! The model reads record sample k at the instant k·dt and holds the voltage of sample k over
 //! [k·dt, (k+1)·dt) (zero-order hold). The drive samples `m` times faster and holds the same
 //! voltage over those `m` samples; record sample k is the drive's reading at the instant k·dt,
-//! exactly what the model simulates. Averaged readings would lower the noise by √m but add a
-//! bias of the signal's curvature over the window, which the fit's noise floor (σ/√m) then
-//! exposes: over the commissioning benchmark's 1,000 motors the fit took a median of 1,867
-//! evaluations on records averaged over 9 drive samples, against 52 on instantaneous ones,
-//! with all six parameters within 3 % for 60.3 % of the motors against 64.5 %
-//! (`docs/measurements/commissioning.md`).
+//! exactly what the model simulates. Averaged readings lower the noise by √m; against a model
+//! of the instant they add a bias of the signal's curvature over the window, which the fit's
+//! noise floor (σ/√m) then exposes (on the commissioning benchmark's 1,000 motors a median of
+//! 1,867 evaluations on records averaged over 9 drive samples, against 52). With
+//! [`Bench::averaged`] (a host option so far) record sample k is the mean of the drive's
+//! readings over the step that ends at it, sample 0 the mean of as many at 0 V before the
+//! record, and the records say so ([`crate::model::record::Record::averaged`]): the fit
+//! simulates that mean ([`crate::model::step_mean`]). Motor-like motors with all six within
+//! 3 % 94.5 → 100 %, the whole box 75.6 → 85.3 % (`docs/measurements/commissioning.md`).
 
 use crate::device::bench::Bench;
 use crate::device::design::RecordPlan;
@@ -74,7 +77,8 @@ pub fn fast_input(k: usize, n: usize, volts: f32) -> Bridge {
 
 /// Record one record into `store` after those it holds: `plan.samples` samples of
 /// `plan.step` drive samples each, the bridge as `input(k)` over record sample k, its
-/// coast-down from `coast_from`. `Ok(false)` when a reading passed the bench's guard
+/// coast-down from `coast_from`; each sample the reading at its instant, or with
+/// [`Bench::averaged`] the mean of the step's (see the module doc). `Ok(false)` when a reading passed the bench's guard
 /// ([`Bench::guarded`]): the bridge is then open and the record incomplete.
 pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,
@@ -84,19 +88,45 @@ pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     coast_from: Option<usize>,
     input: impl Fn(usize) -> Bridge,
 ) -> Result<bool, JobEnd> {
-    let index = store.open(plan.dt(bench.dt()), coast_from);
+    let m = plan.step as usize;
+    let averaged = bench.averaged && m > 1;
+    let index = store.open(
+        plan.dt(bench.dt()),
+        coast_from,
+        if averaged { m as u32 } else { 1 },
+    );
     let n = plan.samples.min(store.free());
     if n == 0 {
         return Ok(true);
     }
-    let m = plan.step as usize;
+    let (mut sum_w, mut sum_i) = (0.0f32, 0.0f32);
+    if averaged {
+        // Sample 0: the mean of the readings at 0 V before the record starts (a record
+        // starts from rest, whose state they read, with the others' noise).
+        for _ in 0..m {
+            let Some(s) = bench.guarded(Bridge::Drive(0.0), speed_share)? else {
+                return Ok(false);
+            };
+            sum_w += s.omega;
+            sum_i += s.current;
+        }
+    }
     for b in 0..=(n - 1) * m {
         let k = b / m;
         let Some(s) = bench.guarded(input(k), speed_share)? else {
             return Ok(false);
         };
+        if averaged && b > 0 {
+            sum_w += s.omega;
+            sum_i += s.current;
+        }
         if b % m == 0 {
-            store.push(index, input(k).recorded_volts(), s.omega, s.current);
+            let (w, i) = match averaged {
+                true => (sum_w / m as f32, sum_i / m as f32),
+                false => (s.omega, s.current),
+            };
+            (sum_w, sum_i) = (0.0, 0.0);
+            store.push(index, input(k).recorded_volts(), w, i);
         }
     }
     Ok(true)

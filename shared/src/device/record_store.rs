@@ -17,6 +17,8 @@ pub(super) struct Segment {
     pub dt: f32,
     /// First sample of the coast-down, counted from the record's start.
     pub coast_from: Option<usize>,
+    /// Drive samples each reading is the mean of ([`Record::averaged`]).
+    pub averaged: u32,
 }
 
 /// Buffers of up to [`SEGMENTS`] records, `N` samples in all, in fixed memory.
@@ -46,6 +48,8 @@ impl<const N: usize> RecordStore<N> {
             len: 0,
             dt: 0.0,
             coast_from: None,
+            // 0 reads as 1 (a reading at each instant) and keeps the buffers in `.bss`.
+            averaged: 0,
         };
         RecordStore {
             segments: [EMPTY; SEGMENTS],
@@ -65,9 +69,9 @@ impl<const N: usize> RecordStore<N> {
         self.with_current = with_current;
     }
 
-    /// Open a new record of step `dt` (its coast-down from `coast_from`) after the last one;
-    /// its index.
-    pub(super) fn open(&mut self, dt: f32, coast_from: Option<usize>) -> usize {
+    /// Open a new record of step `dt` (its coast-down from `coast_from`, each reading the
+    /// mean of `averaged` drive samples) after the last one; its index.
+    pub(super) fn open(&mut self, dt: f32, coast_from: Option<usize>, averaged: u32) -> usize {
         let start = match self.count {
             0 => 0,
             c => self.segments[c - 1].start + self.segments[c - 1].len,
@@ -78,6 +82,7 @@ impl<const N: usize> RecordStore<N> {
             len: 0,
             dt,
             coast_from,
+            averaged,
         };
         self.count = index + 1;
         index
@@ -124,6 +129,7 @@ impl<const N: usize> RecordStore<N> {
                     current: self.with_current.then(|| &self.current[span]),
                     load: None,
                     coast_from: seg.coast_from,
+                    averaged: seg.averaged,
                 }
             })
             .collect()
@@ -138,12 +144,12 @@ mod tests {
     fn two_records_share_the_buffers_one_after_the_other() {
         let mut store = RecordStore::<8>::new();
         store.clear(true);
-        let a = store.open(0.1, Some(3));
+        let a = store.open(0.1, Some(3), 1);
         for k in 0..5 {
             assert!(store.push(a, k as f32, 1.0, 2.0));
         }
         assert_eq!(store.free(), 3);
-        let b = store.open(0.01, None);
+        let b = store.open(0.01, None, 1);
         for k in 0..3 {
             assert!(store.push(b, -(k as f32), 0.0, 0.0));
         }

@@ -92,6 +92,7 @@ pub struct Service<'s, const N: usize> {
     store: &'s mut RecordStore<N>,
     session: bool,
     limits: Limits,
+    averaged: bool,
 }
 
 impl<'s, const N: usize> Service<'s, N> {
@@ -102,7 +103,16 @@ impl<'s, const N: usize> Service<'s, N> {
             store,
             session: false,
             limits,
+            averaged: false,
         }
+    }
+
+    /// Commissioning records each sample as the mean of the drive's readings over its step
+    /// (`on`), not the reading at its instant. Host builds only so far: a board's simulator
+    /// holds no mean ([`crate::model::step_mean`]), and its fit refuses such records.
+    pub fn with_averaged_records(mut self, on: bool) -> Self {
+        self.averaged = on;
+        self
     }
 
     /// Power-up: into service with valid stored parameters, otherwise self-commissioning
@@ -183,7 +193,7 @@ impl<'s, const N: usize> Service<'s, N> {
                 }
                 let s = &mut *self.store;
                 s.clear(with_current);
-                s.open(dt, coast_from.map(|k| k as usize));
+                s.open(dt, coast_from.map(|k| k as usize), 1);
                 s.expected = samples as usize;
                 let first = BoardMessage::ChunkOk { next: 0 };
                 hw.link.send(&first);
@@ -356,6 +366,7 @@ impl<'s, const N: usize> Service<'s, N> {
         let recorded = run_experiment(
             self.store,
             &self.limits,
+            self.averaged,
             &mut hw.link,
             &mut hw.drive,
             &mut hw.watchdog,

@@ -32,6 +32,8 @@ pub struct BoardRecord {
     pub current: Vec<f32>,
     /// First sample of the coast-down (bridge open to the end).
     pub coast_from: Option<usize>,
+    /// Drive samples each reading is the mean of ([`Record::averaged`]).
+    pub averaged: u32,
 }
 
 impl BoardRecord {
@@ -44,6 +46,7 @@ impl BoardRecord {
             current: Some(&self.current),
             load: None,
             coast_from: self.coast_from,
+            averaged: self.averaged,
         }
     }
 }
@@ -120,10 +123,12 @@ impl<D: Drive> Drive for Counted<D> {
 /// Commission `plant` (the simulated plant of [`crate::device::plant`], or any other drive:
 /// the tests' independent reference plant) within `limits` with identification seed `seed`,
 /// as the board does: every message goes to `on_message` as it is sent; `abort` set stops
-/// it (as the host's `Abort` does).
+/// it (as the host's `Abort` does). With `averaged`, each record sample is the mean of the
+/// drive's readings over its step ([`Service::with_averaged_records`]).
 pub fn commission<D: Drive>(
     plant: D,
     limits: Limits,
+    averaged: bool,
     seed: u64,
     abort: Option<&AtomicBool>,
     on_message: &mut dyn FnMut(&BoardMessage),
@@ -142,7 +147,9 @@ pub fn commission<D: Drive>(
         params: RamParams::default(),
         watchdog: NoWatchdog,
     };
-    let result = Service::new(&mut *store, limits).commission(seed, &mut hw);
+    let result = Service::new(&mut *store, limits)
+        .with_averaged_records(averaged)
+        .commission(seed, &mut hw);
     let seconds = hw.drive.samples as f32 * hw.drive.dt();
     let records = store
         .records()
@@ -153,6 +160,7 @@ pub fn commission<D: Drive>(
             omega: r.omega.to_vec(),
             current: r.current.map(|c| c.to_vec()).unwrap_or_default(),
             coast_from: r.coast_from,
+            averaged: r.averaged,
         })
         .collect();
     Commissioning {

@@ -71,6 +71,24 @@ impl Objective<'_, '_> {
         h: f32,
         central: bool,
         out: &mut NormalEquations,
+        scores: Option<&mut ScoreBlocks>,
+    ) -> Option<()> {
+        match Simulator::any_averaged(self.records) {
+            true => self.normal_equations_of::<true>(space, u, h, central, out, scores),
+            false => self.normal_equations_of::<false>(space, u, h, central, out, scores),
+        }
+    }
+
+    /// [`Objective::normal_equations_sums`], of averaged readings with `AVERAGED`
+    /// ([`Simulator::sample`]).
+    #[allow(clippy::too_many_arguments)]
+    fn normal_equations_of<const AVERAGED: bool>(
+        &self,
+        space: &Space,
+        u: &[f32],
+        h: f32,
+        central: bool,
+        out: &mut NormalEquations,
         mut scores: Option<&mut ScoreBlocks>,
     ) -> Option<()> {
         let dim = space.dim();
@@ -108,9 +126,9 @@ impl Objective<'_, '_> {
         out.jtr = [0.0; MAX_FREE];
         for r in self.records {
             let (init, shifted) = self.initial_pair(r, &nominal);
-            let mut sim0 = Simulator::new(&nominal, r.dt, init).ok()?;
+            let mut sim0 = Simulator::for_record(&nominal, r, init).ok()?;
             let mut sim_s = match shifted {
-                Some(s) => Some(Simulator::new(&nominal, r.dt, s).ok()?),
+                Some(s) => Some(Simulator::for_record(&nominal, r, s).ok()?),
                 None => None,
             };
             let mut sims: heapless::Vec<Simulator, { 2 * MAX_FREE }> = heapless::Vec::new();
@@ -120,13 +138,14 @@ impl Objective<'_, '_> {
                 moved[d] = x;
                 let p = space.params(&moved[..dim]);
                 let (init_p, _) = self.initial_pair(r, &p);
-                sims.push(Simulator::new(&p, r.dt, init_p).ok()?).ok()?;
+                sims.push(Simulator::for_record(&p, r, init_p).ok()?).ok()?;
             }
             let tracks = sim0.tracks_angle() || sims.iter().any(Simulator::tracks_angle);
             let with_current = r.current.is_some() && w > 0.0;
             let mut sums = RecordSums::new(dim, with_current, sim_s.is_some());
             if let Some(s) = scores.as_deref_mut() {
-                let rounding = match s.adc_readings() {
+                // A mean of several readings is not on the count grid: no steady rounding.
+                let rounding = match s.adc_readings() && r.averaged <= 1 {
                     true => [
                         Rounding::of(r.omega, self.sigma_omega()),
                         match (r.current, self.sigma_current(), with_current) {
@@ -145,8 +164,14 @@ impl Objective<'_, '_> {
                 s.start_record(r.len(), rounding);
             }
             for k in 0..r.len() {
-                let y0 = sim0.reading();
-                let read = |i: usize| if i == NOMINAL { y0 } else { sims[i].reading() };
+                let y0 = sim0.sample::<AVERAGED>();
+                let read = |i: usize| {
+                    if i == NOMINAL {
+                        y0
+                    } else {
+                        sims[i].sample::<AVERAGED>()
+                    }
+                };
                 let mut col_w = [0.0f32; MAX_FREE];
                 let mut col_i = [0.0f32; MAX_FREE];
                 for d in 0..dim {
@@ -161,7 +186,7 @@ impl Objective<'_, '_> {
                 sums.add_jacobian(rw, ri, col_w, col_i);
                 if let Some(s) = scores.as_deref_mut() {
                     // The residuals' response to the initial speed (see ScoreBlocks).
-                    let h = match sim_s.as_ref().map(Simulator::reading) {
+                    let h = match sim_s.as_ref().map(Simulator::sample::<AVERAGED>) {
                         Some(ys) => (
                             (ys.omega - y0.omega) / SHIFT,
                             if with_current {
@@ -175,16 +200,16 @@ impl Objective<'_, '_> {
                     s.add(col_w, col_i, (rw, ri), h, (y0.omega, y0.current));
                 }
                 if let Some(s) = sim_s.as_ref() {
-                    sums.add_shift_response(r, k, y0, s.reading(), w, col_w, col_i);
+                    sums.add_shift_response(r, k, y0, s.sample::<AVERAGED>(), w, col_w, col_i);
                 }
                 sums.end_sample();
                 let input = r.step_input(k, tracks);
-                sim0.apply(&input);
+                sim0.apply_record::<AVERAGED>(&input);
                 if let Some(s) = sim_s.as_mut() {
-                    s.apply(&input);
+                    s.apply_record::<AVERAGED>(&input);
                 }
                 for s in sims.iter_mut() {
-                    s.apply(&input);
+                    s.apply_record::<AVERAGED>(&input);
                 }
             }
             let shift = sums.finish_into(w, &mut totals, Some((dim, &mut out.jtj, &mut out.jtr)));

@@ -189,7 +189,6 @@ impl<'r, 'a> Objective<'r, 'a> {
     /// (`totals` untouched then). The record's sums never leave this frame. Not inlined: a frame of its own keeps the hot
     /// loop's simulators and sums next to the stack pointer (on the M4, within reach of one
     /// `vldr`, which the callers' larger frames had pushed out: 11 % more instructions).
-    #[inline(never)]
     fn record_sums(
         &self,
         r: &Record,
@@ -197,8 +196,24 @@ impl<'r, 'a> Objective<'r, 'a> {
         partial: &Partial,
         totals: &mut Totals,
     ) -> Result<Option<f32>, ()> {
+        match Simulator::any_averaged(core::slice::from_ref(r)) {
+            true => self.record_sums_of::<true>(r, p, partial, totals),
+            false => self.record_sums_of::<false>(r, p, partial, totals),
+        }
+    }
+
+    /// [`Objective::record_sums`], of averaged readings with `AVERAGED`
+    /// ([`Simulator::sample`]).
+    #[inline(never)]
+    fn record_sums_of<const AVERAGED: bool>(
+        &self,
+        r: &Record,
+        p: &ModelParams,
+        partial: &Partial,
+        totals: &mut Totals,
+    ) -> Result<Option<f32>, ()> {
         let (init, shifted) = self.initial_pair(r, p);
-        let Ok(mut sim) = Simulator::new(p, r.dt, init) else {
+        let Ok(mut sim) = Simulator::for_record(p, r, init) else {
             return Ok(None);
         };
         let with_current = r.current.is_some() && self.current_weight > 0.0;
@@ -210,28 +225,28 @@ impl<'r, 'a> Objective<'r, 'a> {
             // grows monotonically, so a candidate can be abandoned early.
             None => {
                 for k in 0..r.len() {
-                    sums.add_residuals(r, k, sim.reading(), w);
+                    sums.add_residuals(r, k, sim.sample::<AVERAGED>(), w);
                     if sums.end_sample()
                         && k % CHECK_EVERY == CHECK_EVERY - 1
                         && partial.reached(&sums)
                     {
                         return Err(());
                     }
-                    sim.apply(&r.step_input(k, tracks));
+                    sim.apply_record::<AVERAGED>(&r.step_input(k, tracks));
                 }
             }
             Some(s) => {
-                let Ok(mut sim_s) = Simulator::new(p, r.dt, s) else {
+                let Ok(mut sim_s) = Simulator::for_record(p, r, s) else {
                     return Ok(None);
                 };
                 for k in 0..r.len() {
-                    let y = sim.reading();
+                    let y = sim.sample::<AVERAGED>();
                     sums.add_residuals(r, k, y, w);
-                    sums.add_shift_response(r, k, y, sim_s.reading(), w, &[], &[]);
+                    sums.add_shift_response(r, k, y, sim_s.sample::<AVERAGED>(), w, &[], &[]);
                     sums.end_sample();
                     let input = r.step_input(k, tracks);
-                    sim.apply(&input);
-                    sim_s.apply(&input);
+                    sim.apply_record::<AVERAGED>(&input);
+                    sim_s.apply_record::<AVERAGED>(&input);
                 }
             }
         }

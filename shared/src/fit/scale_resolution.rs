@@ -110,6 +110,7 @@ mod tests {
             current: Some(&current),
             load: None,
             coast_from: None,
+            averaged: 1,
         };
         // Ra 8.56 ohm: Kv 0.0135 V s/rad gives 5.5 mA at 3.5 rad/s (0.24 count); 0.1 gives
         // 41 mA (1.7 counts).

@@ -20,7 +20,7 @@ use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
 
 /// 2x2 matrix, row major, f64.
-type M2 = [[f64; 2]; 2];
+pub(crate) type M2 = [[f64; 2]; 2];
 
 /// Discrete-time coefficients of one parameter set at one step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,6 +41,29 @@ pub struct Discrete {
     pub gm: f32,
 }
 
+/// The linear motor of paper Eq. 5 in f64: its parameters and its state matrix `A` (state
+/// `[i, w]`; `Bu = [[1/La, 0], [0, -1/J]]`).
+pub(crate) struct Motor {
+    pub ra: f64,
+    pub la: f64,
+    pub j: f64,
+    pub b: f64,
+    pub a: M2,
+}
+
+impl Motor {
+    /// The motor of `p` (its parameters checked by the caller).
+    pub(crate) fn of(p: &ModelParams) -> Motor {
+        let ra = p.get(ParamId::Ra) as f64;
+        let la = p.get(ParamId::La) as f64;
+        let j = p.get(ParamId::J) as f64;
+        let b = p.get(ParamId::B) as f64;
+        let kv = p.get(ParamId::Kv) as f64;
+        let a = [[-ra / la, -kv / la], [kv / j, -b / j]];
+        Motor { ra, la, j, b, a }
+    }
+}
+
 impl Discrete {
     /// Discretise the linear motor of `p` (paper Eq. 5) at step `dt` seconds. (Not inlined:
     /// a simulator's start and its events within a step share one copy of the board's code.)
@@ -56,13 +79,8 @@ impl Discrete {
                 return Err(Error::NonPositiveParameter(id));
             }
         }
-        let ra = p.get(ParamId::Ra) as f64;
-        let la = p.get(ParamId::La) as f64;
-        let j = p.get(ParamId::J) as f64;
-        let b = p.get(ParamId::B) as f64;
-        let kv = p.get(ParamId::Kv) as f64;
+        let Motor { ra, la, j, b, a } = Motor::of(p);
         let t = dt as f64;
-        let a: M2 = [[-ra / la, -kv / la], [kv / j, -b / j]];
         let (g, f) = exp_minus_identity_and_integral(&a, t);
         // Bu = [[1/La, 0], [0, -1/J]].
         let gv = [f[0][0] / la, f[1][0] / la];
@@ -173,13 +191,13 @@ fn log1p(x: f64) -> f64 {
 }
 
 /// `x' = a x + b u`, exact ZOH: returns `(e^{a t} - 1, b * (e^{a t} - 1) / a)`.
-fn first_order(a: f64, b: f64, t: f64) -> (f64, f64) {
+pub(crate) fn first_order(a: f64, b: f64, t: f64) -> (f64, f64) {
     let em1 = libm::expm1(a * t);
     let integral = if (a * t).abs() < 1e-8 { t } else { em1 / a };
     (em1, b * integral)
 }
 
-fn mat_mul(x: &M2, y: &M2) -> M2 {
+pub(crate) fn mat_mul(x: &M2, y: &M2) -> M2 {
     [
         [
             x[0][0] * y[0][0] + x[0][1] * y[1][0],
@@ -201,7 +219,7 @@ fn combine(p: f64, q: f64, a: &M2, m: f64) -> M2 {
 }
 
 /// `(e^{At} - I, integral_0^t e^{As} ds)` of a 2x2 matrix with positive determinant.
-fn exp_minus_identity_and_integral(a: &M2, t: f64) -> (M2, M2) {
+pub(crate) fn exp_minus_identity_and_integral(a: &M2, t: f64) -> (M2, M2) {
     let mu = 0.5 * (a[0][0] + a[1][1]);
     let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
     // mu^2 - det written without the cancellation of its two large terms.

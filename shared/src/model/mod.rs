@@ -15,4 +15,5 @@ pub mod profile;
 pub mod record;
 pub mod rounding;
 pub mod sim;
+pub mod step_mean;
 pub mod synth;

@@ -29,6 +29,11 @@ pub struct Record<'a> {
     /// every bridge switch is off (open circuit), so no armature current flows, `v` is not
     /// applied and the shaft slows under friction and load alone (paper Eq. 4 with `i = 0`).
     pub coast_from: Option<usize>,
+    /// Drive samples each reading is the mean of: 1 (or 0) for readings at the sample instants;
+    /// `m > 1` for the mean of the `m` readings a drive took over the step that ends at
+    /// the sample (`(k - 1) dt + j dt / m`, `j = 1..=m`; sample 0 the reading at the start),
+    /// which the fit simulates as such ([`crate::model::step_mean`]).
+    pub averaged: u32,
 }
 
 impl<'a> Record<'a> {
@@ -181,12 +186,12 @@ pub fn simulate(
         return Err(Error::LengthMismatch);
     }
     r.validate()?;
-    let mut sim = Simulator::new(p, r.dt, init)?;
+    let mut sim = Simulator::for_record(p, r, init)?;
     for k in 0..n {
-        let y = sim.reading();
+        let y = sim.sample::<true>();
         out_omega[k] = y.omega;
         out_current[k] = y.current;
-        sim.apply(&r.step_input(k, track_angle));
+        sim.apply_record::<true>(&r.step_input(k, track_angle));
     }
     Ok(())
 }
@@ -209,6 +214,7 @@ mod tests {
             current: Some(&current),
             load: None,
             coast_from: None,
+            averaged: 1,
         };
         let p = ModelParams::PAPER_MOTOR.with(ParamId::Io, 0.35);
         let at_rest = |p: &ModelParams| r.starts_at_rest(p, 0.5, Some(0.05));
@@ -230,6 +236,7 @@ mod tests {
             current: None,
             load: None,
             coast_from: None,
+            averaged: 1,
         };
         assert_eq!(ok.validate(), Ok(()));
         let coasting = Record {

@@ -135,6 +135,9 @@ pub struct Simulator {
     /// The share of the way to its steady state the rise goes in a step
     /// ([`winding_heating::step_gain`]; host builds only).
     thermal_gain: [f32; HOST_SLOT],
+    /// Readings averaged over each step (host builds; a board's simulator is copied a dozen
+    /// times into every Jacobian and keeps no slot).
+    averaged: [Option<averaged::Averaged>; HOST_SLOT],
     shaft_stuck: bool,
     current_stuck: bool,
     ring: [f32; RING],
@@ -195,6 +198,7 @@ impl Simulator {
             thermal_gain: core::array::from_fn(|_| {
                 winding_heating::step_gain(p.get(ParamId::TauTh), dt)
             }),
+            averaged: [None; HOST_SLOT],
             shaft_stuck: false,
             current_stuck: false,
             ring: [0.0; RING],
@@ -221,6 +225,10 @@ impl Simulator {
         self.head = 0;
         self.filled = 0;
         self.push_reading();
+        let now = self.reading();
+        for a in self.averaged.iter_mut().flatten() {
+            a.last = now;
+        }
     }
 
     /// Effect parameter `id` (0 for one this build does not hold: a constant).
@@ -420,6 +428,8 @@ impl Simulator {
     }
 }
 
+#[path = "sim_averaged.rs"]
+mod averaged;
 #[path = "sim_brush_events.rs"]
 mod brush_events;
 #[path = "sim_effect_step.rs"]

@@ -17,6 +17,7 @@ fn trace(p: &ModelParams, dt: f32, n: usize) -> Vec<f32> {
         current: None,
         load: None,
         coast_from: None,
+        averaged: 1,
     };
     simulate(p, &r, InitialState::REST, false, &mut w, &mut i).unwrap();
     w

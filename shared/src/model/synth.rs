@@ -154,6 +154,7 @@ impl TableOneCase {
             current: with_current.then_some(&self.current[..]),
             load: None,
             coast_from: None,
+            averaged: 1,
         }
     }
 }

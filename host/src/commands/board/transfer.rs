@@ -69,6 +69,7 @@ pub fn download(c: &mut Connection) -> Result<Vec<BoardRecord>> {
             omega: Vec::with_capacity(samples),
             current: Vec::with_capacity(samples),
             coast_from: first.coast_from.map(|k| k as usize),
+            averaged: 1,
         };
         let mut part = first;
         loop {

@@ -1,0 +1,168 @@
+//! Records of averaged readings ([`crate::model::record::Record::averaged`]): a simulation
+//! that reads, for each sample, the mean of the drive's readings over the step that ends at
+//! it ([`crate::model::step_mean`]), exactly while the shaft turns or stands over the whole
+//! step, and by simulating the step again in the drive's steps where it stops, reverses or
+//! breaks away. On the host only: a board's simulator holds no slot for it (see
+//! [`super::Simulator`]).
+
+use super::{sign, InitialState, Reading, Simulator, StepInput, HOST_SLOT};
+use crate::capacity::FULL;
+use crate::error::Error;
+use crate::model::compensated::Compensated;
+use crate::model::effects::current_offset;
+use crate::model::params::ModelParams;
+use crate::model::record::Record;
+use crate::model::step_mean::StepMean;
+use crate::param_id::ParamId;
+
+/// Readings averaged over each step ([`crate::model::step_mean`]): the mean's coefficients
+/// and the mean over the last step (the reading at the start before the first).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Averaged {
+    pub(super) coeffs: StepMean,
+    /// Drive samples per step.
+    pub(super) m: u32,
+    pub(super) last: Reading,
+}
+
+impl Simulator {
+    /// A simulation of record `r` from `init`: its readings at the sample instants, or, for
+    /// a record of readings averaged over each step ([`Record::averaged`] drive samples),
+    /// their means ([`Simulator::sample`]).
+    #[inline(always)]
+    pub fn for_record(p: &ModelParams, r: &Record, init: InitialState) -> Result<Self, Error> {
+        match r.averaged > 1 {
+            true => Simulator::averaged(p, r, init),
+            false => Simulator::new(p, r.dt, init),
+        }
+    }
+
+    /// [`Simulator::for_record`] of averaged readings. Exact for the linear motor and
+    /// Coulomb friction (see [`Simulator::average_over_step`]): any other effect would be
+    /// held at an instant. (Out of line: a board, which refuses it, keeps its frames.)
+    #[inline(never)]
+    fn averaged(p: &ModelParams, r: &Record, init: InitialState) -> Result<Self, Error> {
+        let mut s = Simulator::new(p, r.dt, init)?;
+        let slot = s.averaged.first_mut();
+        let (Some(slot), true, false) = (slot, s.friction_only, s.delayed) else {
+            return Err(Error::AveragedReadingsNotModelled);
+        };
+        *slot = Some(Averaged {
+            coeffs: StepMean::new(p, r.dt, r.averaged),
+            m: r.averaged,
+            last: Reading {
+                omega: 0.0,
+                current: 0.0,
+            },
+        });
+        s.reset(init);
+        Ok(s)
+    }
+
+    /// The mean `[i, w]` of `m` drive steps over the step just taken, from its start
+    /// `(i0, w0, stuck)` (see [`Simulator::average_over_step`]).
+    fn substepped_mean(&self, m: u32, start: (f32, f32, bool), v: f32, tl: f32) -> (f32, f32) {
+        let (i0, w0, stuck) = start;
+        let share = 1.0 / m as f32;
+        let Ok(disc) = self.disc.over_share(self.dt, self.kv, share) else {
+            return (0.5 * (i0 + self.current.hi), 0.5 * (w0 + self.omega.hi));
+        };
+        let mut drive = self.clone();
+        drive.averaged = [None; HOST_SLOT];
+        (drive.disc, drive.dt) = (disc, self.dt * share);
+        drive.current = Compensated::new(i0);
+        drive.omega = Compensated::new(w0);
+        drive.shaft_stuck = stuck;
+        let (mut si, mut sw) = (0.0f32, 0.0f32);
+        for _ in 0..m {
+            drive.step(v, tl, None);
+            (si, sw) = (si + drive.current.hi, sw + drive.omega.hi);
+        }
+        (si / m as f32, sw / m as f32)
+    }
+
+    /// What a record's sample reads after the steps so far: the reading now, or with
+    /// `AVERAGED`, for averaged readings ([`Simulator::for_record`]), the mean over the
+    /// last step ([`Simulator::apply_record`]). (A const parameter: the fit loops of
+    /// records at instants keep their code, which a test per step slowed by a fifth.)
+    #[inline(always)]
+    pub fn sample<const AVERAGED: bool>(&self) -> Reading {
+        match (AVERAGED, self.averaged.first()) {
+            (true, Some(Some(a))) => a.last,
+            _ => self.reading(),
+        }
+    }
+
+    /// [`Simulator::apply`], and with `AVERAGED` the mean of the readings over the step for
+    /// averaged readings ([`Simulator::sample`]).
+    #[inline(always)]
+    pub fn apply_record<const AVERAGED: bool>(&mut self, input: &StepInput) {
+        if !AVERAGED {
+            return self.apply(input);
+        }
+        if input.opens {
+            self.open_circuit();
+        }
+        self.step_averaged(input.v, input.tl, input.measured_omega);
+    }
+
+    /// Whether `records` hold averaged readings that this build simulates (the host's).
+    pub fn any_averaged(records: &[Record]) -> bool {
+        FULL && records.iter().any(|r| r.averaged > 1)
+    }
+
+    /// [`Simulator::step`] and the mean of the readings over it (averaged readings).
+    #[inline(never)]
+    fn step_averaged(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
+        let start = (self.current.hi, self.omega.hi, self.shaft_stuck);
+        self.step(v, tl, measured_omega);
+        if let Some(Some(a)) = self.averaged.first() {
+            let (coeffs, m) = (a.coeffs, a.m);
+            self.average_over_step(&coeffs, m, start, v, tl);
+        }
+    }
+
+    /// The mean of the readings over the step just taken from `(i0, w0, stuck)`, with `v`
+    /// and `tl` held ([`StepMean`], `m` drive samples): exact while the shaft turns
+    /// (Coulomb friction a held load, as in [`Simulator::step_friction`]) or stands (the
+    /// rotor held) over the whole step, with the bridge open or closed. Over a step in which
+    /// the shaft stops, reverses or breaks away, the step is simulated again in `m` steps
+    /// of the drive's (its coefficients over that share, [`Discrete::over_share`]) and
+    /// their readings averaged: one sample of a record, at a stop or a start, where a
+    /// mean of the step's two ends would be off by a good part of the step's change.
+    #[inline(never)]
+    fn average_over_step(
+        &mut self,
+        c: &StepMean,
+        m: u32,
+        start: (f32, f32, bool),
+        v: f32,
+        tl: f32,
+    ) {
+        let (i0, w0, stuck) = start;
+        let tc = if self.friction {
+            self.effect(ParamId::Tc)
+        } else {
+            0.0
+        };
+        let w1 = self.omega.hi;
+        let through =
+            !stuck && !self.shaft_stuck && (!self.friction || (w0 != 0.0 && sign(w1) == sign(w0)));
+        let (i, w) = match (through, stuck && self.shaft_stuck, self.open) {
+            (true, _, open) => {
+                let load = tl + tc * sign(w0);
+                match open {
+                    true => (0.0, c.mechanical(w0, load)),
+                    false => c.linear(i0, w0, v, load),
+                }
+            }
+            (false, true, true) => (0.0, 0.0),
+            (false, true, false) => (c.held_rotor(i0, v), 0.0),
+            (false, false, _) => self.substepped_mean(m, start, v, tl),
+        };
+        let current = current_offset::reading(self.effect(ParamId::Io), i);
+        if let Some(Some(a)) = self.averaged.first_mut() {
+            a.last = Reading { omega: w, current };
+        }
+    }
+}
