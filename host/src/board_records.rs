@@ -42,6 +42,11 @@ fn record_file(r: &BoardRecord, path: PathBuf) -> OwnedRecord {
 
 /// Write `records` into `dir` (each atomically) under [`file_names`]; the paths written.
 pub fn write_records(dir: &Path, records: &[BoardRecord]) -> Result<Vec<PathBuf>> {
+    // A record CSV holds the readings at the instants (docs/CONTRACTS.md): means over each
+    // step written there would be fitted as instants.
+    if records.iter().any(|r| r.averaged > 1) {
+        bail!("records of readings averaged over each step cannot be written as record CSVs yet");
+    }
     let mut written = Vec::new();
     for (r, name) in records.iter().zip(file_names(records.len())) {
         let path = dir.join(name);
@@ -49,4 +54,25 @@ pub fn write_records(dir: &Path, records: &[BoardRecord]) -> Result<Vec<PathBuf>
         written.push(path);
     }
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn averaged_records_are_not_written_as_record_csvs() {
+        let dir = tempfile::tempdir().unwrap();
+        let record = BoardRecord {
+            dt: 1e-3,
+            v: vec![0.0; 8],
+            omega: vec![0.0; 8],
+            current: vec![0.0; 8],
+            coast_from: None,
+            averaged: 4,
+        };
+        let err = write_records(dir.path(), &[record]).unwrap_err();
+        assert!(err.to_string().contains("averaged"), "{err}");
+        assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+    }
 }

@@ -97,6 +97,7 @@ pub fn identify_from(
     }
     let objective = Objective::new(records)?;
     let space = Space::new(spec, cfg.log_scale)?;
+    objective.averaged_readings_modelled(&space)?;
     let searched = pipeline(
         records,
         spec,

@@ -354,3 +354,24 @@ fn correlated_noise_widens_the_reported_spread() {
     }
     assert!(covered >= 5, "{covered} of 6 fits within 3 reported std");
 }
+
+#[test]
+fn averaged_readings_with_an_effect_they_do_not_model_are_refused_before_the_fit() {
+    // A record of means over each step (`Record::averaged`) with a bridge dead time in the
+    // problem: refused with its reason, not every candidate rejected to NoFiniteCandidate.
+    let data = Owned::paper_motor_noisy_steps(11);
+    let r = crate::model::record::Record {
+        averaged: 4,
+        ..data.record(true, false)
+    };
+    let mut spec = ProblemSpec::default();
+    spec.fix(ParamId::Vdt, 0.3).unwrap();
+    spec.fix(ParamId::Ib, 0.05).unwrap();
+    let cfg = IdentifyConfig::default_pipeline(1);
+    let err = identify(&[r], &spec, &cfg, |_| ControlFlow::Continue(())).err();
+    assert_eq!(err, Some(Error::AveragedReadingsNotModelled));
+    // Coulomb friction alone is modelled: the fit runs.
+    let mut spec = ProblemSpec::default();
+    spec.fix(ParamId::Tc, 0.01).unwrap();
+    assert!(identify(&[r], &spec, &cfg, |_| ControlFlow::Continue(())).is_ok());
+}

@@ -144,13 +144,12 @@ impl Objective<'_, '_> {
             let with_current = r.current.is_some() && w > 0.0;
             let mut sums = RecordSums::new(dim, with_current, sim_s.is_some());
             if let Some(s) = scores.as_deref_mut() {
-                // A mean of several readings is not on the count grid: no steady rounding.
-                let rounding = match s.adc_readings() && r.averaged <= 1 {
+                let rounding = match s.adc_readings() {
                     true => [
-                        Rounding::of(r.omega, self.sigma_omega()),
+                        Rounding::of_means(r.omega, self.sigma_omega(), r.averaged),
                         match (r.current, self.sigma_current(), with_current) {
                             (Some(c), Some(sc), true) => {
-                                let q = Rounding::of(c, sc);
+                                let q = Rounding::of_means(c, sc, r.averaged);
                                 Rounding {
                                     error: w * q.error,
                                     ..q

@@ -7,6 +7,7 @@
 //! the nominal and perturbed parameter sets are simulated in lockstep and `J^T J`, `J^T r`
 //! accumulated per sample (fixed memory `O(dim^2)`, whatever the record length).
 
+use crate::capacity::MAX_FREE;
 use crate::error::Error;
 
 use crate::fit::space::Space;
@@ -77,6 +78,24 @@ impl<'r, 'a> Objective<'r, 'a> {
     /// The records.
     pub fn records(&self) -> &'r [Record<'a>] {
         self.records
+    }
+
+    /// Records of averaged readings ([`Record::averaged`]) are simulated with no effect but
+    /// Coulomb friction, and on the host only: refused with
+    /// [`Error::AveragedReadingsNotModelled`] when the problem of `space` holds another
+    /// effect (as the middle of the space does) or the build cannot simulate them, rather
+    /// than every candidate rejected one by one. (Out of line: its simulator stays off a
+    /// board's deepest frames.)
+    #[inline(never)]
+    pub fn averaged_readings_modelled(&self, space: &Space) -> Result<(), Error> {
+        if self.records.iter().all(|r| r.averaged <= 1) {
+            return Ok(());
+        }
+        let middle = space.params(&[0.5; MAX_FREE][..space.dim()]);
+        for r in self.records {
+            Simulator::for_record(&middle, r, InitialState::REST)?;
+        }
+        Ok(())
     }
 
     /// The cost of the sums over all records.

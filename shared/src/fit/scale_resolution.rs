@@ -12,6 +12,7 @@
 //! Such a scale is reported as not pinned.
 
 use crate::fit::identifiability::Identifiability;
+use crate::model::noise::noise_sigma;
 use crate::model::params::ModelParams;
 use crate::model::record::Record;
 use crate::model::rounding::Rounding;
@@ -33,11 +34,14 @@ const SCALE: [ParamId; 4] = [ParamId::J, ParamId::B, ParamId::Kv, ParamId::Tc];
 pub fn below_resolution(records: &[Record], p: &ModelParams, sigma_current: f32) -> bool {
     let mut count = f32::INFINITY;
     let mut top = 0.0f32;
+    // Drive readings per sample at most: the noise of one reading is √m times a mean's.
+    let mut readings = 1u32;
     for r in records {
+        readings = readings.max(r.averaged);
         let Some(current) = r.current else {
             return false;
         };
-        let q = Rounding::of(current, sigma_current).count;
+        let q = Rounding::of_means(current, sigma_current, r.averaged).count;
         if q > 0.0 {
             count = count.min(q);
         }
@@ -46,8 +50,19 @@ pub fn below_resolution(records: &[Record], p: &ModelParams, sigma_current: f32)
     if !count.is_finite() {
         return false;
     }
-    // Sheppard: the noise before rounding.
-    let before = (sigma_current * sigma_current - count * count / 12.0).max(0.0);
+    // Sheppard: the noise of one reading before rounding. Records of means (of several
+    // readings each) pool noises of different sizes: the least of their single readings'.
+    let single = match readings {
+        1 => sigma_current,
+        _ => records
+            .iter()
+            .filter_map(|r| {
+                r.current
+                    .map(|c| noise_sigma(c) * libm::sqrtf(r.averaged.max(1) as f32))
+            })
+            .fold(f32::INFINITY, f32::min),
+    };
+    let before = (single * single - count * count / 12.0).max(0.0);
     let back_emf = p.get(ParamId::Kv) * top / p.get(ParamId::Ra);
     libm::sqrtf(before) < UNDITHERED * count && back_emf < SCALE_COUNTS * count
 }

@@ -31,8 +31,9 @@ pub struct Record<'a> {
     pub coast_from: Option<usize>,
     /// Drive samples each reading is the mean of: 1 (or 0) for readings at the sample instants;
     /// `m > 1` for the mean of the `m` readings a drive took over the step that ends at
-    /// the sample (`(k - 1) dt + j dt / m`, `j = 1..=m`; sample 0 the reading at the start),
-    /// which the fit simulates as such ([`crate::model::step_mean`]).
+    /// the sample (`(k - 1) dt + j dt / m`, `j = 1..=m`), which the fit simulates as such
+    /// ([`crate::model::step_mean`]). Sample 0 is the record's initial state as the fit
+    /// takes it (the board: the mean of `m` readings at rest just before the record).
     pub averaged: u32,
 }
 

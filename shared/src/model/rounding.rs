@@ -23,18 +23,34 @@ impl Rounding {
     /// long as it stays there, however many samples are averaged: 0.29 count without noise,
     /// 0.10 with a noise of 0.2 count, 0.001 with half a count. About 0 for readings not on
     /// a grid (their smallest step lies far below the noise).
-    #[inline(never)]
     pub fn of(x: &[f32], sigma: f32) -> Rounding {
-        let mut q = f32::INFINITY;
+        Rounding::of_means(x, sigma, 1)
+    }
+
+    /// [`Rounding::of`] for readings each the mean of `m` rounded readings (a record of
+    /// averaged readings, [`crate::model::record::Record::averaged`]): their grid is a count
+    /// over `m` and their noise `sigma` is one reading's over √m, while the error of a
+    /// reading held within one count is one reading's, averaged or not.
+    #[inline(never)]
+    pub fn of_means(x: &[f32], sigma: f32, m: u32) -> Rounding {
+        // Means of readings that the drive offset in f32 differ by rounding residue where
+        // their sums are equal: steps under a thousandth of the noise are that.
+        let least = match m > 1 {
+            true => 1e-3 * sigma,
+            false => 0.0,
+        };
+        let mut step = f32::INFINITY;
         for w in x.windows(2) {
             let d = (w[1] - w[0]).abs();
-            if d > 0.0 && d < q {
-                q = d;
+            if d > least && d < step {
+                step = d;
             }
         }
-        if !q.is_finite() {
+        if !step.is_finite() {
             return Rounding::default();
         }
+        let m = m.max(1) as f32;
+        let (q, sigma) = (step * m, sigma * libm::sqrtf(m));
         // In f32 (a board's FPU), the terms r^(k^2) by products, r = e^(-4 pi^2 s^2/q^2).
         let pi = core::f32::consts::PI;
         let s2 = (sigma * sigma - q * q / 12.0).max(0.0);
@@ -71,6 +87,39 @@ mod tests {
     fn rms(v: impl Iterator<Item = f64>) -> f64 {
         let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
         libm::sqrt(s / n as f64)
+    }
+
+    #[test]
+    fn means_of_rounded_readings_keep_one_reading_s_count_and_held_error() {
+        // Readings on a grid of 0.25 with noise of 0.2 count, offset by a constant as a
+        // board subtracts its sensor's offset, averaged in eights: their grid is an eighth of
+        // a count (with f32 residue under it), their noise an eighth's root of one reading's.
+        let (q, m, noise) = (0.25f32, 8u32, 0.05f32);
+        let mut rng = crate::rng::seeded(5);
+        let mut single = Vec::new();
+        let mut means = Vec::new();
+        for p in 0..400 {
+            let x = 3.0 + 0.37 * p as f32 / 400.0;
+            let mut sum = 0.0f32;
+            for _ in 0..m {
+                let y = libm::roundf((x + noise * crate::rng::normal(&mut rng)) / q) * q - 0.0137;
+                single.push(y);
+                sum += y;
+            }
+            means.push(sum / m as f32);
+        }
+        let sigma = libm::sqrtf(noise * noise + q * q / 12.0);
+        let one = Rounding::of(&single, sigma);
+        let averaged = Rounding::of_means(&means, sigma / libm::sqrtf(m as f32), m);
+        assert!((one.count - q).abs() < 1e-6, "{one:?}");
+        assert!((averaged.count - q).abs() < 1e-4, "{averaged:?}");
+        assert!(
+            (averaged.error / one.error - 1.0).abs() < 1e-3,
+            "{averaged:?} {one:?}"
+        );
+        // Read as single readings, the means would claim a count of an eighth, or of the
+        // residue.
+        assert!(Rounding::of(&means, sigma).count < 0.5 * q);
     }
 
     #[test]

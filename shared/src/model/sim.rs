@@ -139,6 +139,10 @@ pub struct Simulator {
     /// times into every Jacobian and keeps no slot).
     averaged: [Option<averaged::Averaged>; HOST_SLOT],
     shaft_stuck: bool,
+    /// The shaft stopped or broke away within a step since this was last cleared (records
+    /// of averaged readings clear it before each step: `sim_averaged`; host builds only,
+    /// as `averaged`).
+    friction_event: [bool; HOST_SLOT],
     current_stuck: bool,
     ring: [f32; RING],
     head: u8,
@@ -200,6 +204,7 @@ impl Simulator {
             }),
             averaged: [None; HOST_SLOT],
             shaft_stuck: false,
+            friction_event: [false; HOST_SLOT],
             current_stuck: false,
             ring: [0.0; RING],
             head: 0,

@@ -115,6 +115,7 @@ impl Simulator {
     #[inline(never)]
     fn step_averaged(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         let start = (self.current.hi, self.omega.hi, self.shaft_stuck);
+        self.friction_event = [false; HOST_SLOT];
         self.step(v, tl, measured_omega);
         if let Some(Some(a)) = self.averaged.first() {
             let (coeffs, m) = (a.coeffs, a.m);
@@ -145,10 +146,12 @@ impl Simulator {
         } else {
             0.0
         };
-        let w1 = self.omega.hi;
-        let through =
-            !stuck && !self.shaft_stuck && (!self.friction || (w0 != 0.0 && sign(w1) == sign(w0)));
-        let (i, w) = match (through, stuck && self.shaft_stuck, self.open) {
+        // A stop or a break-away within the step, whatever the step's ends (a shaft may
+        // stop and turn on, or break away and stick again, within one step).
+        let event = self.friction_event.first() == Some(&true);
+        let through = !stuck && !self.shaft_stuck && !event;
+        let held = stuck && self.shaft_stuck && !event;
+        let (i, w) = match (through, held, self.open) {
             (true, _, open) => {
                 let load = tl + tc * sign(w0);
                 match open {
