@@ -12,7 +12,7 @@
 //! readings over the step that ends at it, sample 0 the mean of as many at 0 V before the
 //! record, and the records say so ([`crate::model::record::Record::averaged`]): the fit
 //! simulates that mean ([`crate::model::step_mean`]). Motor-like motors with all six within
-//! 3 % 94.5 → 98.2 %, the whole box 75.6 → 83.6 % (`docs/measurements/commissioning.md`).
+//! 3 % 94.5 → 98.2 %, the whole box 75.6 → 83.7 % (`docs/measurements/commissioning.md`).
 
 use crate::device::bench::Bench;
 use crate::device::design::RecordPlan;

@@ -207,7 +207,7 @@ fn pipeline(
         }
         space.unit(&full)
     });
-    let floor = noise_floor(objective.sigma_omega());
+    let floor = noise_floor(objective.floor_sigma());
     let refine_first = cfg.search != SearchWhen::Always;
     if let (true, Some(u0), Some(_)) = (refine_first, start_u, cfg.refine) {
         run.refine(&u0[..dim]);
@@ -360,7 +360,7 @@ impl<P: FnMut(&Progress) -> ControlFlow<()>> Run<'_, '_, '_, P> {
     fn search(&mut self, seed_point: Option<&[f32]>) -> Result<(), Error> {
         let starts = self.explore(seed_point)?;
         let dim = self.space.dim();
-        let floor = noise_floor(self.objective.sigma_omega());
+        let floor = noise_floor(self.objective.floor_sigma());
         for u0 in &starts {
             if !self.completed || self.cfg.refine.is_none() {
                 break;

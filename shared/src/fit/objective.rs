@@ -7,13 +7,14 @@
 //! the nominal and perturbed parameter sets are simulated in lockstep and `J^T J`, `J^T r`
 //! accumulated per sample (fixed memory `O(dim^2)`, whatever the record length).
 
-use crate::capacity::MAX_FREE;
+use crate::capacity::{FULL, MAX_FREE};
 use crate::error::Error;
 
 use crate::fit::space::Space;
 use crate::fit::sums::{pooled_sigma, Partial, RecordSums, Totals, CHECK_EVERY, SHIFT};
 use crate::model::params::ModelParams;
 use crate::model::record::Record;
+use crate::model::rounding::Rounding;
 use crate::model::sim::{InitialState, Simulator};
 
 /// Goodness of fit of one parameter set.
@@ -115,6 +116,38 @@ impl<'r, 'a> Objective<'r, 'a> {
     /// Estimated speed noise [rad/s] (floored, see [`pooled_sigma`]).
     pub fn sigma_omega(&self) -> f32 {
         self.sigma_omega
+    }
+
+    /// The fitness a fit at its noise floor leaves [rad/s]: the measured speed noise, and for
+    /// records of averaged readings ([`Record::averaged`]) the rounding error a reading held
+    /// within one count keeps ([`Rounding::of_means`]), which noise measured on means does
+    /// not see (the current's weighted into speed, as in [`Cost::fitness`]). Without it a
+    /// fit of averaged ADC readings stayed above its floor and escalated on a quarter of the
+    /// commissioning benchmark's motors (`docs/measurements/commissioning.md`).
+    pub fn floor_sigma(&self) -> f32 {
+        // (A board refuses averaged records: `averaged_readings_modelled`.)
+        if !FULL || self.records.iter().all(|r| r.averaged <= 1) {
+            return self.sigma_omega;
+        }
+        let w = self.current_weight as f64;
+        let (mut held, mut n) = (0.0f64, 0usize);
+        for r in self.records {
+            n += r.len();
+            if r.averaged <= 1 {
+                continue;
+            }
+            let e_omega = Rounding::of_means(r.omega, self.sigma_omega, r.averaged).error as f64;
+            let e_current = match (r.current, self.sigma_current) {
+                (Some(c), Some(sc)) if w > 0.0 => {
+                    Rounding::of_means(c, sc, r.averaged).error as f64
+                }
+                _ => 0.0,
+            };
+            let per_sample = e_omega * e_omega + w * w * e_current * e_current;
+            held += r.len() as f64 * per_sample / self.residuals_per_sample() as f64;
+        }
+        let s = self.sigma_omega as f64;
+        libm::sqrt(s * s + held / n.max(1) as f64) as f32
     }
 
     /// Estimated current noise [A], when fitting current.
@@ -299,6 +332,45 @@ mod tests {
     use crate::model::profile::Profile;
     use crate::model::synth::Noise;
     use crate::testkit::Owned;
+
+    #[test]
+    fn the_floor_of_averaged_readings_counts_the_rounding_their_mean_keeps() {
+        // A slow speed ramp read on a grid of 0.25 rad/s with a noise of a fifth of a count,
+        // in means of 8: the held rounding (about 0.1 count) is not in their measured noise
+        // (about 0.05 / sqrt 8 count).
+        let (q, m) = (0.25f32, 8u32);
+        let mut rng = crate::rng::seeded(9);
+        let omega: std::vec::Vec<f32> = (0..600)
+            .map(|k| {
+                let x = 20.0 + 0.002 * k as f32;
+                let sum: f32 = (0..m)
+                    .map(|_| libm::roundf((x + 0.05 * crate::rng::normal(&mut rng)) / q) * q)
+                    .sum();
+                sum / m as f32
+            })
+            .collect();
+        let v = std::vec![1.0f32; 600];
+        let r = Record {
+            dt: 1e-3,
+            v: &v,
+            omega: &omega,
+            current: None,
+            load: None,
+            coast_from: None,
+            averaged: m,
+        };
+        let records = [r];
+        let averaged = Objective::new(&records).unwrap();
+        let (floor, sigma) = (averaged.floor_sigma(), averaged.sigma_omega());
+        assert!(
+            floor > 1.5 * sigma && floor > 0.08 * q,
+            "{floor} against {sigma}"
+        );
+        // The same readings taken as instants: the measured noise alone.
+        let records = [Record { averaged: 1, ..r }];
+        let instant = Objective::new(&records).unwrap();
+        assert_eq!(instant.floor_sigma(), instant.sigma_omega());
+    }
 
     #[test]
     fn normal_equations_that_fail_leave_the_cost_as_it_was() {
