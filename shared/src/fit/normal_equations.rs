@@ -81,7 +81,6 @@ impl Objective<'_, '_> {
 
     /// [`Objective::normal_equations_sums`], of averaged readings with `AVERAGED`
     /// ([`Simulator::sample`]).
-    #[allow(clippy::too_many_arguments)]
     fn normal_equations_of<const AVERAGED: bool>(
         &self,
         space: &Space,

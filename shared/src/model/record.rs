@@ -188,13 +188,29 @@ pub fn simulate(
     }
     r.validate()?;
     let mut sim = Simulator::for_record(p, r, init)?;
-    for k in 0..n {
-        let y = sim.sample::<true>();
-        out_omega[k] = y.omega;
-        out_current[k] = y.current;
-        sim.apply_record::<true>(&r.step_input(k, track_angle));
+    match Simulator::any_averaged(core::slice::from_ref(r)) {
+        true => simulate_into::<true>(&mut sim, r, track_angle, out_omega, out_current),
+        false => simulate_into::<false>(&mut sim, r, track_angle, out_omega, out_current),
     }
     Ok(())
+}
+
+/// The loop of [`simulate`]: the readings at the instants, or with `AVERAGED` their means
+/// over each step ([`Simulator::sample`]), so that records at the instants take the plain
+/// step.
+fn simulate_into<const AVERAGED: bool>(
+    sim: &mut Simulator,
+    r: &Record,
+    track_angle: bool,
+    out_omega: &mut [f32],
+    out_current: &mut [f32],
+) {
+    for k in 0..r.len() {
+        let y = sim.sample::<AVERAGED>();
+        out_omega[k] = y.omega;
+        out_current[k] = y.current;
+        sim.apply_record::<AVERAGED>(&r.step_input(k, track_angle));
+    }
 }
 
 #[cfg(test)]
