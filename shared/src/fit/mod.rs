@@ -20,3 +20,4 @@ pub mod scale_resolution;
 pub mod score_blocks;
 pub mod space;
 pub mod sums;
+pub mod torque_scale;

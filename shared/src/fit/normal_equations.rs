@@ -9,6 +9,7 @@ use crate::fit::objective::{Cost, Objective};
 use crate::fit::score_blocks::ScoreBlocks;
 use crate::fit::space::Space;
 use crate::fit::sums::{RecordSums, Totals, SHIFT};
+use crate::fit::torque_scale::ScaleSlot;
 use crate::model::rounding::Rounding;
 use crate::model::sim::Simulator;
 
@@ -93,14 +94,29 @@ impl Objective<'_, '_> {
         let dim = space.dim();
         let nominal = space.params(u);
         // Perturbed points: +h (and -h) per coordinate, kept inside the cube, as (coordinate,
-        // value) (their parameters are built per record: stack is scarce on a board).
+        // value; Kv's along the torque scale, by its displacement) (their parameters are built per record: stack is scarce on a board).
         // `pairs[d]` holds the indices of the upper and lower point in `points`, NOMINAL for
         // the nominal one.
         const NOMINAL: usize = usize::MAX;
         let mut steps = [0.0f32; MAX_FREE];
         let mut pairs = [(NOMINAL, NOMINAL); MAX_FREE];
         let mut points: heapless::Vec<(usize, f32), { 2 * MAX_FREE }> = heapless::Vec::new();
+        // Kv's slot differentiated along the torque scale (see `torque_scale`): its points
+        // are stored by their displacement along it.
+        let scale = ScaleSlot::new(space, &u[..dim], h, central);
         for d in 0..dim {
+            if let Some(slot) = scale.as_ref().filter(|s| s.kv == d) {
+                steps[d] = slot.step();
+                let mut index_of = |t: f32| -> Option<usize> {
+                    if t == 0.0 {
+                        return Some(NOMINAL);
+                    }
+                    points.push((d, t)).ok()?;
+                    Some(points.len() - 1)
+                };
+                pairs[d] = (index_of(slot.t.0)?, index_of(slot.t.1)?);
+                continue;
+            }
             let (hi_u, lo_u) = if central {
                 ((u[d] + h).min(1.0), (u[d] - h).max(0.0))
             } else if u[d] + h <= 1.0 {
@@ -132,9 +148,15 @@ impl Objective<'_, '_> {
             };
             let mut sims: heapless::Vec<Simulator, { 2 * MAX_FREE }> = heapless::Vec::new();
             for &(d, x) in &points {
-                let mut moved = [0.0f32; MAX_FREE];
-                moved[..dim].copy_from_slice(&u[..dim]);
-                moved[d] = x;
+                let moved = match scale.as_ref().filter(|s| s.kv == d) {
+                    Some(slot) => slot.point(&u[..dim], x),
+                    None => {
+                        let mut moved = [0.0f32; MAX_FREE];
+                        moved[..dim].copy_from_slice(&u[..dim]);
+                        moved[d] = x;
+                        moved
+                    }
+                };
                 let p = space.params(&moved[..dim]);
                 let (init_p, _) = self.initial_pair(r, &p);
                 sims.push(Simulator::for_record(&p, r, init_p).ok()?).ok()?;
@@ -178,6 +200,10 @@ impl Objective<'_, '_> {
                     // r = measured - sim, so dr/du = -(dy/du).
                     col_w[d] = -(a.omega - b.omega) / steps[d];
                     col_i[d] = -w * (a.current - b.current) / steps[d];
+                }
+                if let Some(slot) = &scale {
+                    slot.to_axis(&mut col_w[..dim]);
+                    slot.to_axis(&mut col_i[..dim]);
                 }
                 let (col_w, col_i) = (&col_w[..dim], &col_i[..dim]);
                 let (rw, ri) = sums.add_residuals(r, k, y0, w);
