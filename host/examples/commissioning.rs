@@ -177,8 +177,9 @@ fn main() {
                 })
                 .collect();
             eprintln!(
-                "motor {}: beyond 3 sigma: ra {ra} la {la} j {j} b {b} kv {kv} tau_m {tau_m}: {}",
+                "motor {}: beyond 3 sigma: ra {ra} la {la} j {j} b {b} kv {kv} tau_m {tau_m} (back-EMF {:.1} counts by the probe): {}",
                 m + 1,
+                c.plan.as_ref().map_or(f32::NAN, |p| p.back_emf_current / current_count),
                 z.join(", ")
             );
         }

@@ -84,6 +84,18 @@ fn assert_report_within_3_sigma(report: &MotorReport, truth: &[(ParamId, f64)], 
     }
 }
 
+/// Each parameter of `truth` that `report` calls pinned within 3 of its reported deviations.
+fn assert_pinned_within_3_sigma(report: &MotorReport, truth: &[(ParamId, f64)], context: &str) {
+    for &(id, t) in truth {
+        let e = report.get(id.index() as u8).expect("six estimates");
+        assert!(
+            !e.pinned() || (e.value as f64 - t).abs() <= 3.0 * e.std as f64,
+            "{context} {}: {e:?} against {t}",
+            id.name()
+        );
+    }
+}
+
 /// All six of `report` pinned and within 3 % of motor `m` with Coulomb friction `tc`.
 fn assert_six_within_3_percent(report: &MotorReport, m: &Motor, tc: f64, plan: &Option<Plan>) {
     let mut truth = vec![(ParamId::Ra, m.ra), (ParamId::La, m.la)];
@@ -372,11 +384,14 @@ fn a_parameter_not_pinned_says_why() {
 }
 
 #[test]
-fn a_viscous_dominated_motor_s_deviations_cover_its_curved_valley_on_the_reference_plant() {
-    // Viscous loss at 4 times the back-EMF's share (Kv^2 = 0.24 Ra B): J, B, Kv and tc
-    // slide together along a curved valley, and the local deviations (3-4 %) missed the
-    // truth by 3.6 of them on the first seed. The profile check widens them (to 6-8 %;
-    // fit::profile_check, CURVED_STD) where they are wide enough for the valley to bend.
+fn a_viscous_dominated_motor_s_scale_within_a_count_and_a_half_is_not_pinned() {
+    // Viscous loss dominating the back-EMF (Kv^2 = 0.4 % of Ra B): J, B, Kv and tc scale
+    // together, and the back-EMF that alone fixes their scale takes about 0.7 count of the
+    // 12-bit current reading at the records' top speed. A reading held within one count
+    // keeps an error of 0.1 count at this noise, a seventh of it: the scale is left unpinned
+    // (fit::scale_resolution, 1.5 counts), while Ra and La stay pinned and cover the truth.
+    // Under a rule of half a count the scale came out pinned (within 3 deviations here, but
+    // 124 % off at 146 on the commissioning benchmark's motor 509).
     let m = Motor {
         ra: 8.50672,
         la: 0.04865586,
@@ -388,7 +403,12 @@ fn a_viscous_dominated_motor_s_deviations_cover_its_curved_valley_on_the_referen
     for seed in 1..=2 {
         let c = commission_at(20_000.0, m, seed);
         let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
-        assert_report_within_3_sigma(&report, &scale_truth(&m, tc), &format!("seed {seed}"));
+        for (id, t) in scale_truth(&m, tc) {
+            let e = report.get(id.index() as u8).expect("six estimates");
+            assert!(!e.pinned(), "seed {seed} {}: {e:?} against {t}", id.name());
+        }
+        let electrical = [(ParamId::Ra, m.ra), (ParamId::La, m.la)];
+        assert_report_within_3_sigma(&report, &electrical, &format!("seed {seed}"));
     }
 }
 
@@ -448,7 +468,10 @@ fn a_heavy_viscous_shaft_whose_step_never_settles_is_driven_above_its_break_away
             plan.volts
         );
         let report = c.result.unwrap_or_else(|e| panic!("seed {seed}: {e:?}"));
-        assert_report_within_3_sigma(&report, &scale_truth(&m, tc), &format!("seed {seed}"));
+        // Its back-EMF takes a couple of counts of the current reading at most, so its
+        // scale may be left unpinned (fit::scale_resolution); what is pinned covers the
+        // truth.
+        assert_pinned_within_3_sigma(&report, &scale_truth(&m, tc), &format!("seed {seed}"));
     }
 }
 

@@ -14,8 +14,9 @@ use crate::wire::protocol::{MotorReport, Plan};
 pub const MECHANICAL_SPAN: f32 = 3.0;
 /// Record steps per electrical time constant below which La/Ra is not sampled.
 pub const ELECTRICAL_STEPS: f32 = 2.0;
-/// Counts of the current reading, as the probe reads the back-EMF's current, under which a
-/// scale of J, B, Kv and friction left unfixed is put down to it. The probe's reading is a
+/// Counts of the current reading, as the probe reads the back-EMF's current (or the fit's
+/// estimates give it, where lower), under which a scale of J, B, Kv and friction left
+/// unfixed is put down to it. The probe's reading is a
 /// small difference of two currents of tens of amperes, V / Ra - i, and on the motors
 /// concerned it read high: in the commissioning benchmark's box (12-bit readings), motors
 /// that came back with all four not pinned had a back-EMF of 0.3-5.4 counts, which the
@@ -55,8 +56,9 @@ pub enum Unpinned {
         count: f32,
     },
     /// J, B, Kv and Coulomb friction (when fitted) are all not pinned, and the current the
-    /// back-EMF takes away at the probe's speed (`current` A, Kv ω / Ra, as the probe read
-    /// it: a rough figure) is under [`BACK_EMF_COUNTS`] counts of the current reading
+    /// back-EMF takes away (`current` A, Kv ω / Ra: as the probe read it at its speed, or
+    /// by the fit's estimates at the records' steady speed where that is lower; a rough
+    /// figure) is under [`BACK_EMF_COUNTS`] counts of the current reading
     /// (`count` A). The speed gives J, B
     /// and friction relative to Kv (paper Eq. 4 divided by Kv); Kv itself shows only in
     /// the back-EMF term of the current (paper Eq. 1), so all four scale together; Ra and
@@ -67,7 +69,7 @@ pub enum Unpinned {
     /// where the others came out pinned (in the commissioning benchmark, viscous-dominated
     /// motors whose back-EMF took 1-8 counts at the top speed).
     BackEmfBelowResolution {
-        /// Current the back-EMF took away at the probe's speed [A].
+        /// Current the back-EMF takes away, the probe's reading or the fit's [A].
         current: f32,
         /// One count of the current reading [A].
         count: f32,
@@ -106,10 +108,16 @@ pub fn why_not_pinned(
         .all(|p| unpinned(*p) == Some(true))
         && unpinned(ParamId::Tc) != Some(false);
     let motor = mechanical || matches!(param, ParamId::Ra | ParamId::La);
-    let back_emf_within_counts = plan.back_emf_current < BACK_EMF_COUNTS * current_count;
+    // The probe's reading, or the fit's own figure where that is lower: a probe that read
+    // the back-EMF high (motor 679 of the commissioning benchmark: 17 counts, the truth 2)
+    // would leave an unpinned scale without its reason.
+    let back_emf = plan
+        .back_emf_current
+        .min(fitted_back_emf(&value, plan.volts));
+    let back_emf_within_counts = back_emf < BACK_EMF_COUNTS * current_count;
     if motor && scale_unpinned && back_emf_within_counts {
         return Unpinned::BackEmfBelowResolution {
-            current: plan.back_emf_current,
+            current: back_emf,
             count: current_count,
             whole_scale: true,
         };
@@ -138,12 +146,25 @@ pub fn why_not_pinned(
         .all(|p| unpinned(*p).is_some());
     if mechanical && scale_fitted && back_emf_within_counts {
         return Unpinned::BackEmfBelowResolution {
-            current: plan.back_emf_current,
+            current: back_emf,
             count: current_count,
             whole_scale: false,
         };
     }
     Unpinned::NotSeparated
+}
+
+/// The back-EMF's current Kv ω / Ra at the steady speed the estimates give at `volts`,
+/// ω = (Kv V - Ra tc) / (Ra B + Kv²) (paper Eq. 1 and 4 with the derivatives at 0; tc 0
+/// when not fitted); NaN without the estimates.
+fn fitted_back_emf(value: &impl Fn(ParamId) -> f32, volts: f32) -> f32 {
+    let (ra, b, kv) = (value(ParamId::Ra), value(ParamId::B), value(ParamId::Kv));
+    let tc = match value(ParamId::Tc) {
+        tc if tc.is_finite() => tc,
+        _ => 0.0,
+    };
+    let omega = ((kv * volts - ra * tc) / (ra * b + kv * kv)).max(0.0);
+    kv * omega / ra
 }
 
 impl core::fmt::Display for Unpinned {
@@ -168,7 +189,7 @@ impl core::fmt::Display for Unpinned {
             } => {
                 write!(
                     f,
-                    "the back-EMF takes only a few counts of the current reading at the probe's speed (the probe read {current:.2e} A against a count of {count:.2e} A, a rough figure): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it ({}); raise the current or voltage limit, or read the current finer",
+                    "the back-EMF takes only a few counts of the current reading ({current:.2e} A against a count of {count:.2e} A: the probe's reading or the fit's, the lower, a rough figure): Kv shows only through it, and J, B and friction, which the speed gives relative to Kv, scale with it ({}); raise the current or voltage limit, or read the current finer",
                     match whole_scale {
                         true => "Ra and La lean on that scale",
                         false => "the valley along that scale bends, and takes this one along where the others came out pinned",
@@ -330,6 +351,44 @@ mod tests {
             why_not_pinned(ParamId::B, &r, &p, 0.0234),
             Unpinned::NotSeparated
         );
+    }
+
+    #[test]
+    fn a_back_emf_the_probe_read_high_is_the_reason_by_the_fit_s_own_estimates() {
+        // Motor 679 of the commissioning benchmark: the probe read the back-EMF as 0.39 A
+        // (17 counts), the truth 2 counts; the fit's estimates give Kv ω / Ra = 0.244 *
+        // 1.19 / 8.24 = 35 mA at 50 V.
+        let mut p = plan();
+        (p.back_emf_current, p.volts) = (0.387, 50.0);
+        let mut estimates = heapless::Vec::new();
+        let values = [
+            (ParamId::Ra, 8.243),
+            (ParamId::J, 2.28e-3),
+            (ParamId::B, 0.833),
+            (ParamId::Kv, 0.244),
+            (ParamId::Tc, 0.481),
+        ];
+        for (id, value) in values {
+            let std = f32::NAN;
+            let param = id.index() as u8;
+            estimates.push(Estimate { param, value, std }).unwrap();
+        }
+        let r = MotorReport {
+            estimates,
+            rmse_omega: 0.1,
+            evaluations: 10,
+            rank: 3,
+        };
+        let why = why_not_pinned(ParamId::Kv, &r, &p, 0.0234);
+        let Unpinned::BackEmfBelowResolution {
+            current,
+            whole_scale: true,
+            ..
+        } = why
+        else {
+            panic!("{why:?}");
+        };
+        assert!((current - 0.035).abs() < 1e-3, "{current}");
     }
 
     #[test]

@@ -101,9 +101,13 @@ impl Objective<'_, '_> {
         let mut steps = [0.0f32; MAX_FREE];
         let mut pairs = [(NOMINAL, NOMINAL); MAX_FREE];
         let mut points: heapless::Vec<(usize, f32), { 2 * MAX_FREE }> = heapless::Vec::new();
-        // Kv's slot differentiated along the torque scale (see `torque_scale`): its points
-        // are stored by their displacement along it.
-        let scale = ScaleSlot::new(space, &u[..dim], h, central);
+        // Kv's slot differentiated along the torque scale (see `torque_scale`) where a
+        // current is read, for which the scale holds the speed: its points are stored by
+        // their displacement along it.
+        let scale = match self.current_weight > 0.0 {
+            true => ScaleSlot::new(space, &u[..dim], h, central),
+            false => None,
+        };
         for d in 0..dim {
             if let Some(slot) = scale.as_ref().filter(|s| s.kv == d) {
                 steps[d] = slot.step();

@@ -13,7 +13,9 @@
 //! came out 4 to 3,000 times the curvature measured along the line itself (commissioning
 //! benchmark, motor 960: the refinement stalled 12 % off the truth, with deviations 120
 //! times too small; docs/measurements/commissioning.md). Differentiated along the scale
-//! itself, that column is smooth; the axis Jacobian follows by linear algebra.
+//! itself, that column is smooth; the axis Jacobian follows by linear algebra. Only for
+//! records with current: without it the simulated current moves along the scale, and the
+//! speed with it.
 
 use crate::capacity::MAX_FREE;
 use crate::fit::space::{Scale, Space};
