@@ -16,14 +16,13 @@ pub const MECHANICAL_SPAN: f32 = 3.0;
 pub const ELECTRICAL_STEPS: f32 = 2.0;
 /// Counts of the current reading, as the probe reads the back-EMF's current (or the fit's
 /// estimates give it, where lower), under which a scale of J, B, Kv and friction left
-/// unfixed is put down to it. The probe's reading is a
-/// small difference of two currents of tens of amperes, V / Ra - i, and on the motors
-/// concerned it read high: in the commissioning benchmark's box (12-bit readings), motors
-/// that came back with all four not pinned had a back-EMF of 0.3-5.4 counts, which the
-/// probe read as 1-15 (why it reads high is not settled: the electrical step's Ra, if
-/// anything, reads high there, which would lower it). Of the motors whose back-EMF took
-/// under 1, 1-2, 2-4 and 4-8 counts, 87 %, 38 %, 15 % and 2 % came back so
-/// (`docs/measurements/commissioning.md`).
+/// unfixed is put down to it. The probe's reading is a small difference of two currents of
+/// tens of amperes, V / Ra - i, and on the motors concerned it read high: in the
+/// commissioning benchmark's box (12-bit readings; run of 2026-11-26), motors that came back
+/// with all four not pinned had a back-EMF of 0.3-5.4 counts, which the probe read as 1-15
+/// (why it reads high is not settled: the electrical step's Ra, if anything, reads high
+/// there, which would lower it). Of the motors whose back-EMF took under 1, 1-2, 2-4 and
+/// 4-8 counts, 87 %, 38 %, 15 % and 2 % came back so (`docs/measurements/commissioning.md`).
 pub const BACK_EMF_COUNTS: f32 = 16.0;
 
 /// Why a parameter is not pinned.
@@ -163,8 +162,11 @@ fn fitted_back_emf(value: &impl Fn(ParamId) -> f32, volts: f32) -> f32 {
         tc if tc.is_finite() => tc,
         _ => 0.0,
     };
-    let omega = ((kv * volts - ra * tc) / (ra * b + kv * kv)).max(0.0);
-    kv * omega / ra
+    let omega = (kv * volts - ra * tc) / (ra * b + kv * kv);
+    match omega.is_finite() {
+        true => kv * omega.max(0.0) / ra,
+        false => f32::NAN,
+    }
 }
 
 impl core::fmt::Display for Unpinned {

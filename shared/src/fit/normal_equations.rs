@@ -94,9 +94,9 @@ impl Objective<'_, '_> {
         let dim = space.dim();
         let nominal = space.params(u);
         // Perturbed points: +h (and -h) per coordinate, kept inside the cube, as (coordinate,
-        // value; Kv's along the torque scale, by its displacement) (their parameters are built per record: stack is scarce on a board).
-        // `pairs[d]` holds the indices of the upper and lower point in `points`, NOMINAL for
-        // the nominal one.
+        // value; Kv's along the torque scale, by its displacement) (their parameters are
+        // built per record: stack is scarce on a board). `pairs[d]` holds the indices of the
+        // upper and lower point in `points`, NOMINAL for the nominal one.
         const NOMINAL: usize = usize::MAX;
         let mut steps = [0.0f32; MAX_FREE];
         let mut pairs = [(NOMINAL, NOMINAL); MAX_FREE];

@@ -8,9 +8,9 @@
 //! few readings by a count: whatever the local analysis infers from averaging rounded
 //! readings rests on their rounding pattern, not on the motor. A reading held within one
 //! count keeps an error of 0.10 count at a noise of 0.2 count (0.29 without noise,
-//! [`crate::model::rounding::Rounding`]): a seventh to a fifth of a back-EMF of 1.5 counts,
-//! more than the 10 % that pins. And the rule is judged by the estimate, whose back-EMF
-//! moves with the scale. On the commissioning benchmark a viscous motor whose back-EMF took
+//! [`crate::model::rounding::Rounding`]): 7 to 19 % of a back-EMF of 1.5 counts, about the
+//! 10 % that pins. And the rule is judged by the estimate, whose back-EMF moves with the
+//! scale. On the commissioning benchmark a viscous motor whose back-EMF took
 //! a quarter of a count came back with all four pinned 55 % off at 25 to 37 deviations;
 //! once the Jacobian followed the scale (`crate::fit::torque_scale`), one whose back-EMF
 //! took 0.46 count came back with the scale 124 % off, where its estimate put the back-EMF

@@ -47,7 +47,7 @@ const SCALES: [bool; PARAM_COUNT] = {
 /// every coordinate per unit displacement of Kv's (1 at Kv's, 0 for a parameter that does
 /// not scale), the free torque parameters scaled with J, B and Kv. `None` unless J, B and Kv
 /// are all free.
-pub fn direction(space: &Space, u: &[f32]) -> Option<(usize, [f32; MAX_FREE])> {
+fn direction(space: &Space, u: &[f32]) -> Option<(usize, [f32; MAX_FREE])> {
     let free = space.free();
     let slot = |id: ParamId| free.iter().position(|f| f.id == id);
     let (_, _, kv) = (slot(ParamId::J)?, slot(ParamId::B)?, slot(ParamId::Kv)?);
@@ -145,7 +145,7 @@ impl ScaleSlot {
 }
 
 /// The point `t` along `w` from `u`, each coordinate kept within the cube.
-pub fn along(u: &[f32], w: &[f32; MAX_FREE], t: f32) -> [f32; MAX_FREE] {
+fn along(u: &[f32], w: &[f32; MAX_FREE], t: f32) -> [f32; MAX_FREE] {
     let mut moved = [0.0f32; MAX_FREE];
     for ((m, &x), &dx) in moved.iter_mut().zip(u).zip(w) {
         *m = (x + t * dx).clamp(0.0, 1.0);
@@ -155,7 +155,7 @@ pub fn along(u: &[f32], w: &[f32; MAX_FREE], t: f32) -> [f32; MAX_FREE] {
 
 /// The largest displacement up to `h` along `sign * w` from `u` that keeps every coordinate
 /// within the cube (0 at a face the direction leaves by).
-pub fn room(u: &[f32], w: &[f32; MAX_FREE], h: f32, sign: f32) -> f32 {
+fn room(u: &[f32], w: &[f32; MAX_FREE], h: f32, sign: f32) -> f32 {
     u.iter().zip(w).fold(h, |t, (&x, &dx)| {
         let d = sign * dx;
         match d {
