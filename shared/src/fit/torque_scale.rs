@@ -11,8 +11,8 @@
 //! there, and a finite difference along each axis is off by far more than the valley's own
 //! curvature. Their combination along the scale, which holds the speed and so every kink,
 //! came out 4 to 3,000 times the curvature measured along the line itself (commissioning
-//! benchmark, motor 960: the refinement stalled 12 % off the truth, with deviations 120
-//! times too small; docs/measurements/commissioning.md). Differentiated along the scale
+//! benchmark, motor 960: the refinement stalled 12 % off the truth, at 120 of its
+//! deviations; docs/measurements/commissioning.md). Differentiated along the scale
 //! itself, that column is smooth; the axis Jacobian follows by linear algebra. Only for
 //! records with current: without it the simulated current moves along the scale, and the
 //! speed with it.
@@ -90,8 +90,8 @@ pub struct ScaleSlot {
 }
 
 impl ScaleSlot {
-    /// The slot at `u` for finite differences of step `h`, central or forward (backward
-    /// where the forward point would leave the cube); `None` when J, B or Kv is not free or
+    /// The slot at `u` for finite differences of step `h`, central or forward (backward, or
+    /// a shorter forward step, where the forward point would leave the cube); `None` when J, B or Kv is not free or
     /// the point sits in a corner the scale cannot move in (then Kv's axis serves).
     pub fn new(space: &Space, u: &[f32], h: f32, central: bool) -> Option<ScaleSlot> {
         let (kv, w) = direction(space, u)?;
