@@ -88,7 +88,7 @@ pub fn why_not_pinned(
     current_count: f32,
 ) -> Unpinned {
     let value = |p: ParamId| report.get(p.index() as u8).map_or(f32::NAN, |e| e.value);
-    let mechanical = matches!(param, ParamId::J | ParamId::B | ParamId::Kv | ParamId::Tc);
+    let mechanical = crate::fit::torque_scale::scales(param);
     let covered = plan.slow_dt * plan.slow_samples as f32;
     let needed = MECHANICAL_SPAN * plan.tau_m;
     if param == ParamId::La && plan.tau_e < ELECTRICAL_STEPS * plan.fast_dt {

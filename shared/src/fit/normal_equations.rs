@@ -109,34 +109,24 @@ impl Objective<'_, '_> {
             false => None,
         };
         for d in 0..dim {
-            if let Some(slot) = scale.as_ref().filter(|s| s.kv == d) {
-                steps[d] = slot.step();
-                let mut index_of = |t: f32| -> Option<usize> {
-                    if t == 0.0 {
-                        return Some(NOMINAL);
-                    }
-                    points.push((d, t)).ok()?;
-                    Some(points.len() - 1)
-                };
-                pairs[d] = (index_of(slot.t.0)?, index_of(slot.t.1)?);
-                continue;
-            }
-            let (hi_u, lo_u) = if central {
-                ((u[d] + h).min(1.0), (u[d] - h).max(0.0))
-            } else if u[d] + h <= 1.0 {
-                (u[d] + h, u[d])
-            } else {
-                (u[d], u[d] - h)
+            // The upper and lower point's value (Kv's slot: its displacement, 0 at the
+            // nominal point) and the nominal point's.
+            let slot = scale.as_ref().filter(|s| s.kv == d);
+            let (hi, lo, nominal) = match slot {
+                Some(slot) => (slot.t.0, slot.t.1, 0.0),
+                None if central => ((u[d] + h).min(1.0), (u[d] - h).max(0.0), u[d]),
+                None if u[d] + h <= 1.0 => (u[d] + h, u[d], u[d]),
+                None => (u[d], u[d] - h, u[d]),
             };
-            steps[d] = hi_u - lo_u;
+            steps[d] = slot.map_or(hi - lo, ScaleSlot::step);
             let mut index_of = |x: f32| -> Option<usize> {
-                if x == u[d] {
+                if x == nominal {
                     return Some(NOMINAL);
                 }
                 points.push((d, x)).ok()?;
                 Some(points.len() - 1)
             };
-            pairs[d] = (index_of(hi_u)?, index_of(lo_u)?);
+            pairs[d] = (index_of(hi)?, index_of(lo)?);
         }
         let w = self.current_weight;
         let mut totals = Totals::default();
