@@ -1,12 +1,13 @@
 //! The application both builds run: power-up (commission when no valid parameters are
 //! stored, otherwise straight into service), then the service loop answering the host. Its
-//! logic is `motor_id_shared::device::service`; this module adds the record buffer, the limits, the
-//! status LED and the log lines.
+//! logic is `motor_id_shared::device::service`; this module adds the record buffer, the fit's
+//! workspace, the limits, the status LED and the log lines.
 
 use motor_id_shared::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::record_store::RecordStore;
 use motor_id_shared::device::service::{Boot, Service};
+use motor_id_shared::fit::workspace::FitWorkspace;
 use motor_id_shared::wire::limits::Limits;
 use motor_id_shared::wire::protocol::{MotorReport, NotStored};
 use motor_id_shared::wire::stored::STORE_VERSION;
@@ -39,9 +40,14 @@ pub trait StatusLed {
 pub fn run<L: Link, D: Drive, P: ParamStore, W: Watchdog>(
     hw: &'static mut Hardware<L, D, P, W>,
     store: &'static mut RecordStore<MAX_SAMPLES>,
+    workspace: &'static FitWorkspace,
     mut led: impl StatusLed,
 ) -> ! {
-    let mut service = Service::new(store, LIMITS);
+    // Each commissioning record's sample the mean of the drive's readings over its step
+    // (`model::step_mean`): √m less noise, modelled exactly.
+    let mut service = Service::new(store, LIMITS)
+        .with_workspace(workspace)
+        .with_averaged_records(true);
     led.show(State::NoParameters);
     defmt::info!("motor-id firmware: power-up");
     let state = match service.boot(hw) {

@@ -31,8 +31,12 @@ fn main() -> ! {
     // `&'static mut` (a run-time initialiser would build its 24 KB on the stack first).
     static mut STORE: motor_id_shared::device::record_store::RecordStore<{ app::MAX_SAMPLES }> =
         motor_id_shared::device::record_store::RecordStore::new();
+    // The fit's simulators (the Jacobian's fourteen, with the means of averaged readings),
+    // likewise in static RAM rather than on the 8 KB stack.
+    static mut WORKSPACE: motor_id_shared::fit::workspace::FitWorkspace =
+        motor_id_shared::fit::workspace::FitWorkspace::new();
     let (hw, led) = init();
-    app::run(hw, STORE, led)
+    app::run(hw, STORE, WORKSPACE, led)
 }
 
 /// Bring the board up, its hardware in a static: not on the stack the identification needs

@@ -5,9 +5,9 @@
 //! drive allows.
 //!
 //! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ]
-//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--averaged (each record
-//! sample the mean of the drive's readings over its step)] [--verbose] [--only M (motor M
-//! of the run alone)]`
+//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--instant (each record
+//! sample the drive's reading at its instant, not the mean of its readings over the step,
+//! the board's default)] [--verbose] [--only M (motor M of the run alone)]`
 
 use motor_id_shared::device::job::JobEnd;
 use motor_id_shared::device::plant::SimulatedPlant;
@@ -33,7 +33,7 @@ fn main() {
     let adc_bits: u32 = option(&args, "--adc-bits").unwrap_or(12);
     let coulomb: f32 = option(&args, "--coulomb").unwrap_or(0.05);
     let verbose = args.iter().any(|a| a == "--verbose");
-    let averaged = args.iter().any(|a| a == "--averaged");
+    let averaged = !args.iter().any(|a| a == "--instant");
     // One motor of the run alone (its number, as the verbose lines give it).
     let only: Option<usize> = option(&args, "--only");
     let limits = Limits::DEFAULT;
@@ -200,8 +200,9 @@ fn main() {
     println!(
         "motors {motors} (look like motors {like}), drive sampled at {rate} Hz, limits {limits:?}"
     );
-    if averaged {
-        println!("each record sample the mean of the drive's readings over its step");
+    match averaged {
+        true => println!("each record sample the mean of the drive's readings over its step"),
+        false => println!("each record sample the drive's reading at its instant"),
     }
     println!("trips {trips}; refusals {refusals:?}");
     println!(

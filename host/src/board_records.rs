@@ -37,16 +37,12 @@ fn record_file(r: &BoardRecord, path: PathBuf) -> OwnedRecord {
         current: (!r.current.is_empty()).then(|| r.current.clone()),
         load: None,
         coast_from: r.coast_from,
+        averaged: r.averaged,
     }
 }
 
 /// Write `records` into `dir` (each atomically) under [`file_names`]; the paths written.
 pub fn write_records(dir: &Path, records: &[BoardRecord]) -> Result<Vec<PathBuf>> {
-    // A record CSV holds the readings at the instants (docs/CONTRACTS.md): means over each
-    // step written there would be fitted as instants.
-    if records.iter().any(|r| r.averaged > 1) {
-        bail!("records of readings averaged over each step cannot be written as record CSVs yet");
-    }
     let mut written = Vec::new();
     for (r, name) in records.iter().zip(file_names(records.len())) {
         let path = dir.join(name);
@@ -61,18 +57,29 @@ mod tests {
     use super::*;
 
     #[test]
-    fn averaged_records_are_not_written_as_record_csvs() {
+    fn averaged_records_are_written_with_their_count_and_read_back_as_means() {
         let dir = tempfile::tempdir().unwrap();
         let record = BoardRecord {
             dt: 1e-3,
-            v: vec![0.0; 8],
-            omega: vec![0.0; 8],
-            current: vec![0.0; 8],
-            coast_from: None,
+            v: vec![6.0; 10],
+            omega: (0..10).map(|k| k as f32).collect(),
+            current: vec![0.5; 10],
+            coast_from: Some(7),
             averaged: 4,
         };
-        let err = write_records(dir.path(), &[record]).unwrap_err();
-        assert!(err.to_string().contains("averaged"), "{err}");
-        assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+        let written = write_records(dir.path(), std::slice::from_ref(&record)).unwrap();
+        let back = OwnedRecord::read(&written[0]).unwrap();
+        assert_eq!(back.averaged, 4);
+        assert_eq!(back.coast_from, Some(7));
+        assert_eq!(back.omega, record.omega);
+        assert_eq!(back.current.as_ref(), Some(&record.current));
+        // Readings at the instants carry no column.
+        let instant = BoardRecord {
+            averaged: 1,
+            ..record
+        };
+        let written = write_records(dir.path(), &[instant]).unwrap();
+        let text = std::fs::read_to_string(&written[0]).unwrap();
+        assert_eq!(text.lines().next(), Some("t,v,omega,i,bridge"));
     }
 }

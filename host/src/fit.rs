@@ -167,7 +167,7 @@ fn run_fit(
     let with_current = !opts.speed_only && records.iter().all(|r| r.current.is_some());
     let borrowed = OwnedRecord::as_records(records, with_current);
     let bar = FitProgress::new(opts.quiet);
-    let result = identify_from(&borrowed, &spec, cfg, initial, |p| {
+    let result = identify_from(&borrowed, &spec, cfg, initial, None, |p| {
         bar.update(p);
         ControlFlow::Continue(())
     });

@@ -169,5 +169,6 @@ pub fn simulate(a: &SimulateArgs) -> Result<OwnedRecord> {
         current: (!a.speed_only).then_some(current),
         load: experiment.has_load().then_some(tl),
         coast_from,
+        averaged: 1,
     })
 }

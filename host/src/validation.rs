@@ -350,6 +350,7 @@ mod tests {
             current,
             load: None,
             coast_from: None,
+            averaged: 1,
         };
         let records = [rec(Some(vec![0.5; 3])), rec(Some(vec![0.5; 3])), rec(None)];
         let predicted = [

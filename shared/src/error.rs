@@ -41,9 +41,9 @@ pub enum Error {
     /// An effect that this build's simulator does not hold is on (a board simulates the
     /// five motor parameters and Coulomb friction; see `crate::capacity`).
     EffectNotInBuild(ParamId),
-    /// A record's readings are means over its sample step, which this build, or the model
-    /// with these effects, does not simulate (the host simulates them with no effect but
-    /// Coulomb friction; see `crate::model::step_mean`).
+    /// A record's readings are means over its sample step, which the model with these
+    /// effects does not simulate (it simulates them with no effect but Coulomb friction and
+    /// no sensor delay; see `crate::model::step_mean`).
     AveragedReadingsNotModelled,
 }
 
@@ -85,7 +85,7 @@ impl fmt::Display for Error {
                 p.name()
             ),
             Error::AveragedReadingsNotModelled => f.write_str(
-                "readings averaged over the sample step are simulated on the host only, with no effect but Coulomb friction",
+                "readings averaged over the sample step are simulated with no effect but Coulomb friction",
             ),
         }
     }

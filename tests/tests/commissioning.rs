@@ -334,9 +334,14 @@ fn commission_sim_reports_the_motor_its_plan_and_its_records() {
     assert_within_3_percent(&r["motor"], &PAPER_WITH_FRICTION);
     assert!(r["experiment_seconds"].as_f64().unwrap() <= 60.0, "{r}");
     assert!(r["plan"]["ra"].as_f64().unwrap() > 0.0, "{r}");
-    // The board's records, as record CSVs that identify reads.
+    // The board's records, as record CSVs that identify reads: by default each reading
+    // the mean of the drive's over its step, which the `averaged` column says.
     for name in ["slow.csv", "fast.csv"] {
         let csv = dir.path().join(name);
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let header = text.lines().next().unwrap();
+        assert!(header.starts_with("t,v,omega,i,"), "{header}");
+        assert!(header.ends_with(",averaged"), "{header}");
         run_ok(&["identify", s(&csv), "-q"]);
     }
     // A motor it cannot turn: refused, one line, status 1; out-of-range limits: status 2.

@@ -44,6 +44,11 @@ pub struct CommissionArgs {
     /// limits (0: no quantisation; 4 to 24 otherwise).
     #[arg(long, default_value_t = 12, value_parser = adc_bits)]
     pub adc_bits: u32,
+    /// Record each sample as the drive's reading at its instant, not the mean of its
+    /// readings over the sample step (the board's default: noise down by the square root of
+    /// the readings averaged).
+    #[arg(long)]
+    pub instant_readings: bool,
     /// White noise on the speed reading [rad/s].
     #[arg(long, default_value_t = 0.1, value_parser = within(0.0, 1e6))]
     pub noise_omega: f32,
@@ -115,15 +120,23 @@ pub fn run(a: &CommissionArgs) -> Result<()> {
     // Ctrl-C: the virtual board hears it as the host's abort.
     let interrupted = crate::interrupt::take_over();
     let bar = FitProgress::new(a.quiet);
-    let outcome = commission(plant, limits, false, a.seed, Some(interrupted), &mut |m| {
-        if let BoardMessage::Planned(plan) = m {
-            if !a.quiet {
-                bar.println(&plan_text(plan));
+    let averaged = !a.instant_readings;
+    let outcome = commission(
+        plant,
+        limits,
+        averaged,
+        a.seed,
+        Some(interrupted),
+        &mut |m| {
+            if let BoardMessage::Planned(plan) = m {
+                if !a.quiet {
+                    bar.println(&plan_text(plan));
+                }
+            } else if let Some(state) = BarState::of_board(m) {
+                bar.show(&state);
             }
-        } else if let Some(state) = BarState::of_board(m) {
-            bar.show(&state);
-        }
-    });
+        },
+    );
     bar.finish();
     let unpinned = match (&outcome.result, &outcome.plan) {
         (Ok(r), Some(plan)) => unpinned_reasons(r, plan, current_count),

@@ -43,6 +43,10 @@ pub struct OwnedRecord {
     /// First sample of a coast-down (the `bridge` column is 0 from there to the end: every
     /// bridge switch off, no current, the voltage not applied), if the record has one.
     pub coast_from: Option<usize>,
+    /// Drive readings each sample's readings are the mean of, over the step that ends at
+    /// it (the `averaged` column; 1: readings at the instants): the core's
+    /// `Record::averaged`.
+    pub averaged: u32,
 }
 
 impl OwnedRecord {
@@ -55,7 +59,7 @@ impl OwnedRecord {
             current: self.current.as_deref().filter(|_| use_current),
             load: self.load.as_deref(),
             coast_from: self.coast_from,
-            averaged: 1,
+            averaged: self.averaged,
         }
     }
 
@@ -158,6 +162,10 @@ impl OwnedRecord {
         if self.coast_from.is_some() {
             header.push("bridge");
         }
+        if self.averaged > 1 {
+            header.push("averaged");
+        }
+        let averaged = self.averaged.to_string();
         w.write_record(&header)?;
         for k in 0..self.len() {
             let mut row = vec![
@@ -173,6 +181,9 @@ impl OwnedRecord {
             }
             if let Some(c) = self.coast_from {
                 row.push(if k < c { "1" } else { "0" }.into());
+            }
+            if self.averaged > 1 {
+                row.push(averaged.clone());
             }
             w.write_record(&row)?;
             if k % 4096 == 0 {
@@ -216,6 +227,7 @@ mod tests {
             current: None,
             load: None,
             coast_from: None,
+            averaged: 1,
         };
         let times: Vec<String> = (0..4).map(|k| rec.time_text(k)).collect();
         assert_eq!(times, ["0", "0.001", "0.002", "0.003"]);

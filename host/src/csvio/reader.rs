@@ -105,6 +105,7 @@ impl RecordReader {
         let mut times = TimeSteps::default();
         let mut bridge = BridgeCheck::default();
         let mut turned = false;
+        let mut averaged = None;
         let mut n = 0;
         let size = std::fs::metadata(path).map_or(0, |m| m.len());
         let name = path
@@ -118,6 +119,15 @@ impl RecordReader {
             times.push(row.t);
             bridge.push(n, row.driven, row.line);
             turned |= row.omega != 0.0;
+            match averaged {
+                None => averaged = Some(row.averaged),
+                Some(m) if m != row.averaged => bail!(
+                    "line {}: averaged = {} where the rows before say {m}: every sample is the mean of the same number of readings",
+                    row.line,
+                    row.averaged
+                ),
+                Some(_) => {}
+            }
             samples.push(&row);
             n += 1;
             if samples.len() as u64 > left {
@@ -142,6 +152,10 @@ impl RecordReader {
             Ok(())
         })?;
         let coast_row = bridge.coast_from()?;
+        let averaged = averaged.unwrap_or(1);
+        if averaged > 1 && k > 1 {
+            bail!("its readings are means over each step (averaged = {averaged}): --decimate would take their means as readings at instants; leave it out");
+        }
         samples.finish();
         if samples.len() < MIN_SAMPLES {
             bail!(
@@ -170,6 +184,7 @@ impl RecordReader {
             current: samples.current,
             load: samples.load,
             coast_from,
+            averaged,
         };
         rec.as_record(true).validate().map_err(|e| anyhow!("{e}"))?;
         Ok(rec)
@@ -250,5 +265,71 @@ impl BridgeCheck {
             Some(e) => bail!("{e}"),
             None => Ok(self.open_from.map(|(row, _)| row)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A record CSV of 20 rows whose `averaged` column holds `counts(k)` on row `k`.
+    fn averaged_text(counts: impl Fn(usize) -> String) -> String {
+        let mut text = String::from("t,v,omega,averaged\n");
+        for k in 0..20 {
+            text += &format!("{},12,{},{}\n", k as f64 * 0.01, k, counts(k));
+        }
+        text
+    }
+
+    fn read(text: &str, decimate: u64) -> Result<OwnedRecord> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, text).unwrap();
+        let options = ReadOptions {
+            decimate,
+            ..ReadOptions::default()
+        };
+        RecordReader::new(&options).read(&path)
+    }
+
+    #[test]
+    fn an_averaged_column_makes_the_readings_means_over_each_step() {
+        let rec = read(&averaged_text(|_| "8".into()), 1).unwrap();
+        assert_eq!(rec.averaged, 8);
+        assert_eq!(rec.as_record(true).averaged, 8);
+        // Without the column the readings are at the instants.
+        let plain = read(
+            "t,v,omega\n0,1,1\n1,1,2\n2,1,3\n3,1,4\n4,1,5\n5,1,6\n6,1,7\n7,1,8\n",
+            1,
+        );
+        assert_eq!(plain.unwrap().averaged, 1);
+    }
+
+    #[test]
+    fn an_averaged_column_that_changes_or_is_not_a_count_is_refused_with_its_line() {
+        let err = format!(
+            "{:#}",
+            read(&averaged_text(|k| (4 + k / 5).to_string()), 1).unwrap_err()
+        );
+        assert!(err.ends_with("line 7: averaged = 5 where the rows before say 4: every sample is the mean of the same number of readings"), "{err}");
+        for bad in ["0", "2.5", "-3"] {
+            let err = format!("{:#}", read(&averaged_text(|_| bad.into()), 1).unwrap_err());
+            assert!(err.contains("line 2: averaged = "), "{bad}: {err}");
+            assert!(
+                err.contains("a whole number of drive readings"),
+                "{bad}: {err}"
+            );
+        }
+    }
+
+    #[test]
+    fn means_over_each_step_are_not_decimated() {
+        let err = format!("{:#}", read(&averaged_text(|_| "8".into()), 2).unwrap_err());
+        assert!(
+            err.contains("--decimate would take their means as readings at instants"),
+            "{err}"
+        );
+        // A count of 1 is readings at the instants: decimated as any other.
+        assert!(read(&averaged_text(|_| "1".into()), 2).is_ok());
     }
 }

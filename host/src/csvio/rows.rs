@@ -12,6 +12,9 @@ use std::path::Path;
 /// error, and its squares would overflow the fit's f32 sums.
 pub(super) const MAX_MAGNITUDE: f64 = 1e9;
 
+/// Most drive readings a sample's readings may be the mean of (`averaged` column).
+pub(super) const MAX_AVERAGED: f64 = 1e6;
+
 /// Bytes read from the file at a time.
 const BUFFER_BYTES: usize = 1 << 20;
 
@@ -26,6 +29,7 @@ pub struct Columns {
     /// `tl`, if the record has a known load torque.
     pub load: Option<usize>,
     bridge: Option<usize>,
+    averaged: Option<usize>,
 }
 
 impl Columns {
@@ -38,7 +42,7 @@ impl Columns {
         }
         let header: Vec<&str> = header.iter().map(str::trim).collect();
         let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
-        for name in ["t", "v", "omega", "i", "tl", "bridge"] {
+        for name in ["t", "v", "omega", "i", "tl", "bridge", "averaged"] {
             if header
                 .iter()
                 .filter(|h| h.eq_ignore_ascii_case(name))
@@ -64,7 +68,7 @@ impl Columns {
                 None => "",
             };
             bail!(
-                "missing column(s) {} (header is '{}'; need t, v, omega, optional i, tl, bridge){hint}",
+                "missing column(s) {} (header is '{}'; need t, v, omega, optional i, tl, bridge, averaged){hint}",
                 missing.join(", "),
                 quoted(&joined)
             );
@@ -76,6 +80,7 @@ impl Columns {
             current: col("i"),
             load: col("tl"),
             bridge: col("bridge"),
+            averaged: col("averaged"),
         })
     }
 }
@@ -98,6 +103,8 @@ pub struct Row {
     pub load: f32,
     /// The bridge drives the armature (true without a `bridge` column).
     pub driven: bool,
+    /// Drive readings the row's readings are the mean of (1 without an `averaged` column).
+    pub averaged: u32,
 }
 
 /// The data rows of one record CSV, in file order.
@@ -166,6 +173,16 @@ impl Rows {
                 b == 1.0
             }
         };
+        let averaged = match c.averaged {
+            None => 1,
+            Some(c) => {
+                let m = field(c, "averaged")?;
+                if m.fract() != 0.0 || !(1.0..=MAX_AVERAGED).contains(&m) {
+                    bail!("line {line}: averaged = {m}: a whole number of drive readings from 1 to {MAX_AVERAGED}");
+                }
+                m as u32
+            }
+        };
         Ok(Some(Row {
             line,
             t,
@@ -174,6 +191,7 @@ impl Rows {
             current,
             load,
             driven,
+            averaged,
         }))
     }
 

@@ -142,6 +142,7 @@ pub fn import_scope(path: &Path, s: &ScopeImport) -> Result<OwnedRecord> {
         current: None,
         load: None,
         coast_from: None,
+        averaged: 1,
     };
     rec.as_record(false)
         .validate()

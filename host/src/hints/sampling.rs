@@ -224,6 +224,7 @@ mod tests {
             current: None,
             load: None,
             coast_from: None,
+            averaged: 1,
         }
     }
 

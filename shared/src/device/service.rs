@@ -11,8 +11,11 @@ use crate::device::hardware::{Drive, Hardware, Link, ParamStore, Watchdog};
 use crate::device::job::{abort_requested, fail, refuse, JobEnd};
 use crate::device::record_store::RecordStore;
 use crate::device::report::motor_report;
-use crate::fit::identify::{identify, Identification, IdentifyConfig, Pipeline, Progress, Stage};
+use crate::fit::identify::{
+    identify_from, Identification, IdentifyConfig, Pipeline, Progress, Stage,
+};
 use crate::fit::space::ProblemSpec;
+use crate::fit::workspace::FitWorkspace;
 use crate::wire::limits::Limits;
 use crate::wire::protocol::{
     BoardMessage, HostMessage, JobStage, MotorReport, NotStored, PipelineName, RecordPart, Refusal,
@@ -90,6 +93,8 @@ fn deliver(
 /// The application state.
 pub struct Service<'s, const N: usize> {
     store: &'s mut RecordStore<N>,
+    /// The fit's workspace, when lent ([`Service::with_workspace`]).
+    workspace: Option<&'s FitWorkspace>,
     session: bool,
     limits: Limits,
     averaged: bool,
@@ -101,6 +106,7 @@ impl<'s, const N: usize> Service<'s, N> {
     pub fn new(store: &'s mut RecordStore<N>, limits: Limits) -> Self {
         Service {
             store,
+            workspace: None,
             session: false,
             limits,
             averaged: false,
@@ -108,10 +114,16 @@ impl<'s, const N: usize> Service<'s, N> {
     }
 
     /// Commissioning records each sample as the mean of the drive's readings over its step
-    /// (`on`), not the reading at its instant. Host builds only so far: a board's simulator
-    /// holds no mean ([`crate::model::step_mean`]), and its fit refuses such records.
+    /// (`on`), not the reading at its instant ([`crate::model::step_mean`]).
     pub fn with_averaged_records(mut self, on: bool) -> Self {
         self.averaged = on;
+        self
+    }
+
+    /// The fits keep the Jacobian's simulators in `workspace` (a board's static RAM, off
+    /// its stack: [`crate::fit::workspace`]).
+    pub fn with_workspace(mut self, workspace: &'s FitWorkspace) -> Self {
+        self.workspace = Some(workspace);
         self
     }
 
@@ -300,6 +312,7 @@ impl<'s, const N: usize> Service<'s, N> {
             dt: r.dt,
             samples: len as u32,
             coast_from: r.coast_from.map(|k| k as u32),
+            averaged: r.averaged,
             offset,
             v: take(r.v)?,
             omega: take(r.omega)?,
@@ -320,7 +333,7 @@ impl<'s, const N: usize> Service<'s, N> {
         let records = self.store.records();
         let mut aborted = false;
         let (link, watchdog) = (&mut hw.link, &mut hw.watchdog);
-        let result = identify(&records, spec, cfg, |p: &Progress| {
+        let result = identify_from(&records, spec, cfg, None, self.workspace, |p: &Progress| {
             watchdog.feed();
             link.send(&BoardMessage::Progress {
                 stage: match p.stage {

@@ -8,6 +8,7 @@ use crate::device::hardware::{Drive, Hardware, Link, NoWatchdog, ParamStore, Wat
 use crate::device::job::JobEnd;
 use crate::device::record_store::RecordStore;
 use crate::device::service::Service;
+use crate::fit::workspace::FitWorkspace;
 use crate::model::record::Record;
 use crate::wire::limits::Limits;
 use crate::wire::protocol::{BoardMessage, HostMessage, MotorReport, NotStored, Plan};
@@ -134,6 +135,9 @@ pub fn commission<D: Drive>(
     on_message: &mut dyn FnMut(&BoardMessage),
 ) -> Commissioning {
     let mut store: Box<RecordStore<BOARD_SAMPLES>> = Box::default();
+    // The fit's simulators lent as the firmware lends its static (the same result as on
+    // the fit's frames, `fit::workspace`).
+    let workspace = Box::new(FitWorkspace::new());
     let mut hw = Hardware {
         link: CallbackLink {
             on_message,
@@ -148,6 +152,7 @@ pub fn commission<D: Drive>(
         watchdog: NoWatchdog,
     };
     let result = Service::new(&mut *store, limits)
+        .with_workspace(&workspace)
         .with_averaged_records(averaged)
         .commission(seed, &mut hw);
     let seconds = hw.drive.samples as f32 * hw.drive.dt();

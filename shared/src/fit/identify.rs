@@ -16,6 +16,7 @@ pub use crate::fit::progress::{Progress, Stage, TracePoint};
 use crate::fit::refine::levenberg_marquardt;
 use crate::fit::scale_resolution;
 use crate::fit::space::{ProblemSpec, Space};
+use crate::fit::workspace::FitWorkspace;
 use crate::model::params::ModelParams;
 use crate::model::record::Record;
 use core::ops::ControlFlow;
@@ -75,11 +76,13 @@ pub fn identify(
     cfg: &IdentifyConfig,
     progress: impl FnMut(&Progress) -> ControlFlow<()>,
 ) -> Result<Identification, Error> {
-    identify_from(records, spec, cfg, None, progress)
+    identify_from(records, spec, cfg, None, None, progress)
 }
 
 /// As [`identify`], starting from `initial` (free parameters taken from it, e.g. a previous
-/// fit when an effect is added) instead of the equation-error estimate. Both escalate as
+/// fit when an effect is added) instead of the equation-error estimate, with the Jacobian's
+/// simulators in `workspace` when given (a board's static RAM, [`crate::fit::workspace`];
+/// the result is the same either way). Both escalate as
 /// the pipeline says ([`Escalation`]): while the fit stays above the noise floor
 /// ([`NOISE_FLOOR_FACTOR`] times the measured noise), the wider searches of
 /// [`IdentifyConfig::wider`] in turn, until one reaches the floor, or gains under 1 %, or the
@@ -90,12 +93,13 @@ pub fn identify_from(
     spec: &ProblemSpec,
     cfg: &IdentifyConfig,
     initial: Option<&ModelParams>,
+    workspace: Option<&FitWorkspace>,
     mut progress: impl FnMut(&Progress) -> ControlFlow<()>,
 ) -> Result<Identification, Error> {
     if cfg.restarts as usize > MAX_RESTARTS {
         return Err(Error::InvalidConfig);
     }
-    let objective = Objective::new(records)?;
+    let objective = Objective::new(records)?.with_workspace(workspace);
     let space = Space::new(spec, cfg.log_scale)?;
     objective.averaged_readings_modelled(&space)?;
     let searched = pipeline(

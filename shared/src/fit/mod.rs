@@ -21,3 +21,4 @@ pub mod score_blocks;
 pub mod space;
 pub mod sums;
 pub mod torque_scale;
+pub mod workspace;

@@ -7,11 +7,12 @@
 //! the nominal and perturbed parameter sets are simulated in lockstep and `J^T J`, `J^T r`
 //! accumulated per sample (fixed memory `O(dim^2)`, whatever the record length).
 
-use crate::capacity::{FULL, MAX_FREE};
+use crate::capacity::MAX_FREE;
 use crate::error::Error;
 
 use crate::fit::space::Space;
 use crate::fit::sums::{pooled_sigma, Partial, RecordSums, Totals, CHECK_EVERY, SHIFT};
+use crate::fit::workspace::FitWorkspace;
 use crate::model::params::ModelParams;
 use crate::model::record::Record;
 use crate::model::rounding::Rounding;
@@ -47,6 +48,8 @@ pub struct Objective<'r, 'a> {
     pub(crate) current_weight: f32,
     sigma_omega: f32,
     sigma_current: Option<f32>,
+    /// Memory for the Jacobian's simulators, when lent ([`Objective::with_workspace`]).
+    pub(crate) workspace: Option<&'r FitWorkspace>,
 }
 
 impl<'r, 'a> Objective<'r, 'a> {
@@ -73,7 +76,14 @@ impl<'r, 'a> Objective<'r, 'a> {
             current_weight,
             sigma_omega,
             sigma_current,
+            workspace: None,
         })
+    }
+
+    /// The objective with the Jacobian's simulators in `workspace` (a board's static RAM)
+    /// rather than on the frames of its evaluations.
+    pub fn with_workspace(self, workspace: Option<&'r FitWorkspace>) -> Self {
+        Objective { workspace, ..self }
     }
 
     /// The records.
@@ -82,9 +92,8 @@ impl<'r, 'a> Objective<'r, 'a> {
     }
 
     /// Records of averaged readings ([`Record::averaged`]) are simulated with no effect but
-    /// Coulomb friction, and on the host only: refused with
-    /// [`Error::AveragedReadingsNotModelled`] when the problem of `space` holds another
-    /// effect (as the middle of the space does) or the build cannot simulate them, rather
+    /// Coulomb friction: refused with [`Error::AveragedReadingsNotModelled`] when the
+    /// problem of `space` holds another effect (as the middle of the space does), rather
     /// than every candidate rejected one by one. (Out of line: its simulator stays off a
     /// board's deepest frames.)
     #[inline(never)]
@@ -125,8 +134,7 @@ impl<'r, 'a> Objective<'r, 'a> {
     /// fit of averaged ADC readings stayed above its floor and escalated on a quarter of the
     /// commissioning benchmark's motors (`docs/measurements/commissioning.md`).
     pub fn floor_sigma(&self) -> f32 {
-        // (A board refuses averaged records: `averaged_readings_modelled`.)
-        if !FULL || self.records.iter().all(|r| r.averaged <= 1) {
+        if self.records.iter().all(|r| r.averaged <= 1) {
             return self.sigma_omega;
         }
         let w = self.current_weight as f64;
@@ -248,7 +256,7 @@ impl<'r, 'a> Objective<'r, 'a> {
         partial: &Partial,
         totals: &mut Totals,
     ) -> Result<Option<f32>, ()> {
-        match Simulator::any_averaged(core::slice::from_ref(r)) {
+        match Simulator::averaged_path(core::slice::from_ref(r)) {
             true => self.record_sums_of::<true>(r, p, partial, totals),
             false => self.record_sums_of::<false>(r, p, partial, totals),
         }

@@ -188,7 +188,7 @@ pub fn simulate(
     }
     r.validate()?;
     let mut sim = Simulator::for_record(p, r, init)?;
-    match Simulator::any_averaged(core::slice::from_ref(r)) {
+    match Simulator::averaged_path(core::slice::from_ref(r)) {
         true => simulate_into::<true>(&mut sim, r, track_angle, out_omega, out_current),
         false => simulate_into::<false>(&mut sim, r, track_angle, out_omega, out_current),
     }

@@ -135,14 +135,14 @@ pub struct Simulator {
     /// The share of the way to its steady state the rise goes in a step
     /// ([`winding_heating::step_gain`]; host builds only).
     thermal_gain: [f32; HOST_SLOT],
-    /// Readings averaged over each step (host builds; a board's simulator is copied a dozen
-    /// times into every Jacobian and keeps no slot).
-    averaged: [Option<averaged::Averaged>; HOST_SLOT],
+    /// Readings averaged over each step ([`Simulator::for_record`]; a board's too: the
+    /// Jacobian's simulators sit in a workspace, [`crate::fit::workspace`], not on its
+    /// stack).
+    averaged: Option<averaged::Averaged>,
     shaft_stuck: bool,
     /// The shaft stopped or broke away within a step since this was last cleared (records
-    /// of averaged readings clear it before each step: `sim_averaged`; host builds only,
-    /// as `averaged`).
-    friction_event: [bool; HOST_SLOT],
+    /// of averaged readings clear it before each step: `sim_averaged`).
+    friction_event: bool,
     current_stuck: bool,
     ring: [f32; RING],
     head: u8,
@@ -202,9 +202,9 @@ impl Simulator {
             thermal_gain: core::array::from_fn(|_| {
                 winding_heating::step_gain(p.get(ParamId::TauTh), dt)
             }),
-            averaged: [None; HOST_SLOT],
+            averaged: None,
             shaft_stuck: false,
-            friction_event: [false; HOST_SLOT],
+            friction_event: false,
             current_stuck: false,
             ring: [0.0; RING],
             head: 0,
@@ -231,7 +231,7 @@ impl Simulator {
         self.filled = 0;
         self.push_reading();
         let now = self.reading();
-        for a in self.averaged.iter_mut().flatten() {
+        if let Some(a) = &mut self.averaged {
             a.last = now;
         }
     }

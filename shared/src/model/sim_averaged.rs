@@ -2,10 +2,9 @@
 //! that reads, for each sample, the mean of the drive's readings over the step that ends at
 //! it ([`crate::model::step_mean`]), exactly while the shaft turns or stands over the whole
 //! step, and by simulating the step again in the drive's steps where it stops, reverses or
-//! breaks away. On the host only: a board's simulator holds no slot for it (see
-//! [`super::Simulator`]).
+//! breaks away.
 
-use super::{sign, InitialState, Reading, Simulator, StepInput, HOST_SLOT};
+use super::{sign, InitialState, Reading, Simulator, StepInput};
 use crate::capacity::FULL;
 use crate::error::Error;
 use crate::model::compensated::Compensated;
@@ -39,15 +38,14 @@ impl Simulator {
 
     /// [`Simulator::for_record`] of averaged readings. Exact for the linear motor and
     /// Coulomb friction (see [`Simulator::average_over_step`]): any other effect would be
-    /// held at an instant. (Out of line: a board, which refuses it, keeps its frames.)
+    /// held at an instant. (Out of line: the fit's frames stay small.)
     #[inline(never)]
     fn averaged(p: &ModelParams, r: &Record, init: InitialState) -> Result<Self, Error> {
         let mut s = Simulator::new(p, r.dt, init)?;
-        let slot = s.averaged.first_mut();
-        let (Some(slot), true, false) = (slot, s.friction_only, s.delayed) else {
+        if !s.friction_only || s.delayed {
             return Err(Error::AveragedReadingsNotModelled);
-        };
-        *slot = Some(Averaged {
+        }
+        s.averaged = Some(Averaged {
             coeffs: StepMean::new(p, r.dt, r.averaged),
             m: r.averaged,
             last: Reading {
@@ -68,7 +66,7 @@ impl Simulator {
             return (0.5 * (i0 + self.current.hi), 0.5 * (w0 + self.omega.hi));
         };
         let mut drive = self.clone();
-        drive.averaged = [None; HOST_SLOT];
+        drive.averaged = None;
         (drive.disc, drive.dt) = (disc, self.dt * share);
         drive.current = Compensated::new(i0);
         drive.omega = Compensated::new(w0);
@@ -87,8 +85,8 @@ impl Simulator {
     /// records at instants keep their code, which a test per step slowed by a fifth.)
     #[inline(always)]
     pub fn sample<const AVERAGED: bool>(&self) -> Reading {
-        match (AVERAGED, self.averaged.first()) {
-            (true, Some(Some(a))) => a.last,
+        match (AVERAGED, &self.averaged) {
+            (true, Some(a)) => a.last,
             _ => self.reading(),
         }
     }
@@ -97,7 +95,9 @@ impl Simulator {
     /// averaged readings ([`Simulator::sample`]).
     #[inline(always)]
     pub fn apply_record<const AVERAGED: bool>(&mut self, input: &StepInput) {
-        if !AVERAGED {
+        // (Readings at the instants on the averaged path, as a board's fit of them takes
+        // it: the plain step, no frame of the mean's.)
+        if !AVERAGED || self.averaged.is_none() {
             return self.apply(input);
         }
         if input.opens {
@@ -106,18 +106,21 @@ impl Simulator {
         self.step_averaged(input.v, input.tl, input.measured_omega);
     }
 
-    /// Whether `records` hold averaged readings that this build simulates (the host's).
-    pub fn any_averaged(records: &[Record]) -> bool {
-        FULL && records.iter().any(|r| r.averaged > 1)
+    /// Whether the loops over `records` take the path of averaged readings
+    /// ([`Simulator::sample`] with `AVERAGED`): where a record holds them, and always on a
+    /// board ([`crate::capacity::FULL`] off), whose build so holds one copy of the fit's
+    /// loops (2.3 KB of flash less, at a test per sample).
+    pub fn averaged_path(records: &[Record]) -> bool {
+        !FULL || records.iter().any(|r| r.averaged > 1)
     }
 
     /// [`Simulator::step`] and the mean of the readings over it (averaged readings).
     #[inline(never)]
     fn step_averaged(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
         let start = (self.current.hi, self.omega.hi, self.shaft_stuck);
-        self.friction_event = [false; HOST_SLOT];
+        self.friction_event = false;
         self.step(v, tl, measured_omega);
-        if let Some(Some(a)) = self.averaged.first() {
+        if let Some(a) = &self.averaged {
             let (coeffs, m) = (a.coeffs, a.m);
             self.average_over_step(&coeffs, m, start, v, tl);
         }
@@ -148,7 +151,7 @@ impl Simulator {
         };
         // A stop or a break-away within the step, whatever the step's ends (a shaft may
         // stop and turn on, or break away and stick again, within one step).
-        let event = self.friction_event.first() == Some(&true);
+        let event = self.friction_event;
         let through = !stuck && !self.shaft_stuck && !event;
         let held = stuck && self.shaft_stuck && !event;
         let (i, w) = match (through, held, self.open) {
@@ -164,7 +167,7 @@ impl Simulator {
             (false, false, _) => self.substepped_mean(m, start, v, tl),
         };
         let current = current_offset::reading(self.effect(ParamId::Io), i);
-        if let Some(Some(a)) = self.averaged.first_mut() {
+        if let Some(a) = &mut self.averaged {
             a.last = Reading { omega: w, current };
         }
     }

@@ -4,7 +4,7 @@
 //! viscous and Coulomb friction by up to 8 % on the coarse steps of a commissioning record
 //! (`docs/measurements/commissioning.md`).
 
-use super::{sign, Simulator, HOST_SLOT};
+use super::{sign, Simulator};
 
 impl Simulator {
     /// The electrical step with the rotor at rest over `share` of the step (0 to 1), from
@@ -32,7 +32,7 @@ impl Simulator {
     pub(super) fn stop_within_step(&mut self, i0: f32, w0: f32, w1: f32, volts: f32, load: f32) {
         self.omega.set(0.0);
         self.shaft_stuck = true;
-        self.friction_event = [true; HOST_SLOT];
+        self.friction_event = true;
         let moving = (w0 / (w0 - w1)).clamp(0.0, 1.0);
         let at_stop = match self.open {
             true => 0.0,
@@ -56,7 +56,7 @@ impl Simulator {
         if direction == 0.0 || (self.kv * i1 - load).abs() <= held.abs() {
             return;
         }
-        self.friction_event = [true; HOST_SLOT];
+        self.friction_event = true;
         let (ae, ge) = (self.disc.ae, self.disc.ge);
         let at_break = (held + load) / self.kv;
         let steady = if ae != 0.0 {

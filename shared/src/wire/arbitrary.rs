@@ -264,17 +264,26 @@ fn record_part() -> impl Strategy<Value = RecordPart> {
     let samples = || vec(float(), 0..=READ_CHUNK).prop_map(heapless_vec);
     (
         (any::<u8>(), any::<u8>(), float(), any::<u32>()),
-        (proptest::option::of(any::<u32>()), any::<u32>()),
+        (
+            proptest::option::of(any::<u32>()),
+            any::<u32>(),
+            any::<u32>(),
+        ),
         (samples(), samples(), samples()),
     )
         .prop_map(
-            |((record, records, dt, total), (coast_from, offset), (v, omega, current))| {
+            |(
+                (record, records, dt, total),
+                (coast_from, averaged, offset),
+                (v, omega, current),
+            )| {
                 RecordPart {
                     record,
                     records,
                     dt,
                     samples: total,
                     coast_from,
+                    averaged,
                     offset,
                     v,
                     omega,

@@ -241,6 +241,7 @@ mod tests {
                 dt: 5e-3,
                 samples: 1800,
                 coast_from: Some(1350),
+                averaged: 9,
                 offset: 1792,
                 v: heapless::Vec::from_slice(&[12.0; READ_CHUNK]).unwrap(),
                 omega: heapless::Vec::from_slice(&[-300.5; READ_CHUNK]).unwrap(),

@@ -7,7 +7,7 @@ use crate::wire::limits::Limits;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes shape.
-pub const PROTOCOL_VERSION: u16 = 11;
+pub const PROTOCOL_VERSION: u16 = 12;
 
 /// Samples per [`HostMessage::RecordChunk`].
 pub const CHUNK: usize = 16;
@@ -379,6 +379,9 @@ pub struct RecordPart {
     pub samples: u32,
     /// First sample of its coast-down (bridge open from there to the end), if any.
     pub coast_from: Option<u32>,
+    /// Drive readings each reading is the mean of, over the step that ends at it (1: the
+    /// readings at the instants; `Record::averaged`; protocol 12).
+    pub averaged: u32,
     /// Index of the first sample of this part.
     pub offset: u32,
     /// Voltage applied [V] (0 where the bridge is open).

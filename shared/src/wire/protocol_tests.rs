@@ -16,7 +16,7 @@ const LIMITS: Limits = Limits {
 };
 
 #[test]
-fn the_messages_of_protocols_9_to_11_have_the_bytes_docs_contracts_gives() {
+fn the_messages_of_protocols_9_to_12_have_the_bytes_docs_contracts_gives() {
     let mut out = [0u8; 64];
     let bytes = |m: &HostMessage, out: &mut [u8; 64]| postcard::to_slice(m, out).unwrap().to_vec();
     let limits = [
@@ -82,6 +82,25 @@ fn the_messages_of_protocols_9_to_11_have_the_bytes_docs_contracts_gives() {
     want.push(2);
     want.extend([0u8; 8]);
     assert_eq!(planned, want);
+    // Protocol 12: a record part's `averaged` after `coast_from`; the hello carries 12.
+    let part = RecordPart {
+        record: 1,
+        records: 2,
+        dt: 1.0,
+        samples: 3,
+        coast_from: None,
+        averaged: 300,
+        offset: 2,
+        v: heapless::Vec::from_slice(&[1.0]).unwrap(),
+        omega: heapless::Vec::from_slice(&[1.0]).unwrap(),
+        current: heapless::Vec::new(),
+    };
+    let data = postcard::to_slice(&BoardMessage::RecordData(part), &mut out)
+        .unwrap()
+        .to_vec();
+    let mut want = vec![10, 1, 2, 0x00, 0x00, 0x80, 0x3F, 3, 0, 0xAC, 0x02, 2];
+    want.extend([1, 0x00, 0x00, 0x80, 0x3F, 1, 0x00, 0x00, 0x80, 0x3F, 0]);
+    assert_eq!(data, want);
     assert_eq!(
         bytes(
             &HostMessage::Hello {
@@ -89,6 +108,6 @@ fn the_messages_of_protocols_9_to_11_have_the_bytes_docs_contracts_gives() {
             },
             &mut out
         ),
-        [0, 11]
+        [0, 12]
     );
 }

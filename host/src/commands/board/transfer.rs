@@ -69,13 +69,15 @@ pub fn download(c: &mut Connection) -> Result<Vec<BoardRecord>> {
             omega: Vec::with_capacity(samples),
             current: Vec::with_capacity(samples),
             coast_from: first.coast_from.map(|k| k as usize),
-            averaged: 1,
+            averaged: first.averaged,
         };
         let mut part = first;
         loop {
             let consistent = part.record == index
                 && part.offset as usize == r.v.len()
                 && part.samples as usize == samples
+                && part.averaged == r.averaged
+                && r.averaged >= 1
                 && !part.v.is_empty()
                 && part.omega.len() == part.v.len()
                 && (part.current.is_empty() || part.current.len() == part.v.len());

@@ -60,6 +60,7 @@ pub fn record(name: &str, v: Vec<f32>, omega: Vec<f32>) -> OwnedRecord {
         current: None,
         load: None,
         coast_from: None,
+        averaged: 1,
     }
 }
 

@@ -135,6 +135,7 @@ fn windows(r: &OwnedRecord) -> Option<Vec<OwnedRecord>> {
             current: r.current.as_ref().map(|c| c[span.clone()].to_vec()),
             load: r.load.as_ref().map(|l| l[span.clone()].to_vec()),
             coast_from: None,
+            averaged: 1,
         }
     };
     Some((0..WINDOWS).map(cut).collect())
@@ -260,6 +261,7 @@ mod tests {
             current: Some(current),
             load: None,
             coast_from: None,
+            averaged: 1,
         }
     }
 
@@ -292,6 +294,7 @@ mod tests {
             current: None,
             load: None,
             coast_from: None,
+            averaged: 1,
         };
         let w = windows(&r).unwrap();
         assert!(!same_regime(&w[0], &w[3], (span(&r.v), span(&r.omega))));

@@ -191,6 +191,7 @@ mod tests {
             current: None,
             load: None,
             coast_from: None,
+            averaged: 1,
         };
         let opts = FitOptions {
             quiet: true,
