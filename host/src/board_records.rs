@@ -1,8 +1,9 @@
 //! The records a board recorded (the commissioning experiment's slow and fast records, or a
 //! record streamed to it) as record CSVs, `bridge` column included: one writer for the
 //! virtual board (`commission --sim --out-dir`) and for a board's download
-//! (`board record --out-dir`), so that `identify`, `validate` and `diagnose` run on exactly
-//! what the board fitted.
+//! (`board record --out-dir`), so that `identify` and `validate` run on exactly what the
+//! board fitted (`diagnose` on readings at the instants only: an `averaged` record is
+//! refused there).
 
 use crate::csvio::OwnedRecord;
 use anyhow::{bail, Result};

@@ -344,6 +344,11 @@ fn commission_sim_reports_the_motor_its_plan_and_its_records() {
         assert!(header.ends_with(",averaged"), "{header}");
         run_ok(&["identify", s(&csv), "-q"]);
     }
+    // The diagnosis's effects are not simulated on means: refused in one line, status 1.
+    let (slow, fast) = (dir.path().join("slow.csv"), dir.path().join("fast.csv"));
+    let err = run_err(&["diagnose", "--train", s(&slow), "--holdout", s(&fast), "-q"]);
+    assert!(err.contains("slow.csv: its readings are means of"), "{err}");
+    assert!(err.contains("--instant-readings"), "{err}");
     // A motor it cannot turn: refused, one line, status 1; out-of-range limits: status 2.
     let err = run_err(&[
         "commission",

@@ -96,6 +96,15 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
             );
         }
     }
+    // The catalogue's effects are simulated on readings at the instants only (a mean over
+    // the step is modelled with no effect but Coulomb friction, `model::step_mean`).
+    if let Some(r) = train.iter().chain(&holdout).find(|r| r.averaged > 1) {
+        bail!(
+            "{}: its readings are means of {} drive readings over each step (its averaged column), on which the catalogue's effects are not simulated: diagnose needs readings at the instants (`commission --sim --instant-readings` records them)",
+            r.name(),
+            r.averaged
+        );
+    }
     let with_current =
         !a.fit.speed_only && train.iter().chain(&holdout).all(|r| r.current.is_some());
     let data = Data {
