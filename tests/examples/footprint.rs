@@ -19,12 +19,9 @@
 
 use motor_id_tests::footprint::{
     elf_sizes, footprint_line, ran_the_profile_check, speed_only_record, FLASH_BUDGET, RAM_BUDGET,
-    STACK_BUDGET,
+    STACK_BUDGET, TICKS_PER_INSTRUCTION,
 };
 use motor_id_tests::{board_record, build_firmware, run_ok, s, Qemu};
-
-/// SysTick ticks per instruction under `-icount shift=0` (168 MHz, 1 ns per instruction).
-const TICKS_PER_INSTRUCTION: f64 = 0.168;
 
 fn main() {
     let dir = tempfile::tempdir().expect("temporary directory");

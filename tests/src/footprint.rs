@@ -23,6 +23,9 @@ pub const STACK_BUDGET: f64 = 8.0 * 1024.0;
 pub const PROFILE_CHECK_MOTOR: &str =
     "ra=0.6252534,la=0.8401117,j=0.0011193017,b=0.00088091264,kv=1.6004144";
 
+/// SysTick ticks per instruction under `-icount shift=0` (168 MHz, 1 ns per instruction).
+pub const TICKS_PER_INSTRUCTION: f64 = 0.168;
+
 /// (flash, static RAM) bytes of an ELF: allocated sections, RAM ones at 0x2000_0000 (the
 /// initial values of `.data` counted in flash too).
 pub fn elf_sizes(elf: &Path) -> (u64, u64) {

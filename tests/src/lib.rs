@@ -353,6 +353,11 @@ impl Qemu {
         Qemu::start_full(plant, &[])
     }
 
+    /// [`Qemu::with_plant`] with extra QEMU arguments (e.g. `-icount shift=0`).
+    pub fn with_plant_and(plant: &[(&str, f32)], extra: &[&str]) -> Qemu {
+        Qemu::start_full(plant, extra)
+    }
+
     fn start_full(plant: &[(&str, f32)], extra: &[&str]) -> Qemu {
         use std::io::BufRead;
         let elf = firmware_elf();

@@ -3,16 +3,16 @@
 //!
 //! The model reads record sample k at the instant k·dt and holds the voltage of sample k over
 //! [k·dt, (k+1)·dt) (zero-order hold). The drive samples `m` times faster and holds the same
-//! voltage over those `m` samples; record sample k is the drive's reading at the instant k·dt,
-//! exactly what the model simulates. Averaged readings lower the noise by √m; against a model
-//! of the instant they add a bias of the signal's curvature over the window, which the fit's
-//! noise floor (σ/√m) then exposes (on the commissioning benchmark's 1,000 motors a median of
-//! 1,867 evaluations on records averaged over 9 drive samples, against 52). With
-//! [`Bench::averaged`] (a host option so far) record sample k is the mean of the drive's
-//! readings over the step that ends at it, sample 0 the mean of as many at 0 V before the
-//! record, and the records say so ([`crate::model::record::Record::averaged`]): the fit
-//! simulates that mean ([`crate::model::step_mean`]). Motor-like motors with all six within
-//! 3 % 94.5 → 98.2 %, the whole box 75.6 → 83.7 % (`docs/measurements/commissioning.md`).
+//! voltage over those `m` samples. With [`Bench::averaged`] (the firmware's default) record
+//! sample k is the mean of the drive's readings over the step that ends at it, sample 0 the
+//! mean of as many at 0 V before the record, and the records say so
+//! ([`crate::model::record::Record::averaged`]): the fit simulates that mean
+//! ([`crate::model::step_mean`]), and the noise is √m lower. Motor-like motors with all six
+//! within 3 % 93.9 → 98.2 %, the whole box 75.0 → 82.1 %
+//! (`docs/measurements/commissioning.md`). Without it record sample k is the drive's reading
+//! at the instant k·dt. (Means fitted as instants were biased by the signal's curvature over
+//! the window, which the fit's noise floor σ/√m exposed: a median of 1,867 evaluations on
+//! the benchmark, against 52.)
 
 use crate::device::bench::Bench;
 use crate::device::design::RecordPlan;
