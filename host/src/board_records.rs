@@ -79,8 +79,23 @@ mod tests {
             averaged: 1,
             ..record
         };
-        let written = write_records(dir.path(), &[instant]).unwrap();
+        let written = write_records(dir.path(), std::slice::from_ref(&instant)).unwrap();
         let text = std::fs::read_to_string(&written[0]).unwrap();
         assert_eq!(text.lines().next(), Some("t,v,omega,i,bridge"));
+        // A count the reader would refuse (a hostile board's) is not written.
+        for averaged in [0, 2_000_000] {
+            let bad = BoardRecord {
+                averaged,
+                ..instant.clone()
+            };
+            let sub = dir.path().join(format!("bad-{averaged}"));
+            std::fs::create_dir(&sub).unwrap();
+            let err = write_records(&sub, &[bad]).unwrap_err();
+            assert!(
+                format!("{err:#}").contains(&format!("averaged = {averaged}")),
+                "{err:#}"
+            );
+            assert!(std::fs::read_dir(&sub).unwrap().next().is_none());
+        }
     }
 }

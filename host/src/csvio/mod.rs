@@ -124,6 +124,13 @@ impl OwnedRecord {
     /// Whether the reader would take every value back: finite and within
     /// [`rows::MAX_MAGNITUDE`] (a writer must not write what its reader refuses).
     fn check_readable(&self) -> Result<()> {
+        if self.averaged == 0 || f64::from(self.averaged) > rows::MAX_AVERAGED {
+            bail!(
+                "averaged = {}: not a count of drive readings the record reader takes (1 to {})",
+                self.averaged,
+                rows::MAX_AVERAGED
+            );
+        }
         let columns = [
             ("v", Some(&self.v)),
             ("omega", Some(&self.omega)),

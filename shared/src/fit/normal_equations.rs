@@ -327,6 +327,7 @@ struct Points {
 }
 
 impl Points {
+    /// The points at `u` with difference step `h` (both sides with `central`).
     fn new(space: &Space, u: &[f32], h: f32, central: bool, current_weight: f32) -> Option<Points> {
         let dim = space.dim();
         let scale = match current_weight > 0.0 {
