@@ -5,7 +5,8 @@
 //! drive allows.
 //!
 //! `cargo run --release -p motor-id --example commissioning -- [MOTORS] [--rate HZ]
-//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--instant (each record
+//! [--adc-bits N (12; 0: no quantisation)] [--coulomb SHARE (0.05)] [--noise-omega RAD_S
+//! (0.1)] [--noise-current A (0.005)] [--instant (each record
 //! sample the drive's reading at its instant, not the mean of its readings over the step,
 //! the board's default)] [--verbose] [--only M (motor M of the run alone)]`
 
@@ -32,6 +33,9 @@ fn main() {
     let rate: f32 = option(&args, "--rate").unwrap_or(20_000.0);
     let adc_bits: u32 = option(&args, "--adc-bits").unwrap_or(12);
     let coulomb: f32 = option(&args, "--coulomb").unwrap_or(0.05);
+    // The sensors' white noise per drive reading [rad/s], [A].
+    let noise_omega: f32 = option(&args, "--noise-omega").unwrap_or(0.1);
+    let noise_current: f32 = option(&args, "--noise-current").unwrap_or(0.005);
     let verbose = args.iter().any(|a| a == "--verbose");
     let averaged = !args.iter().any(|a| a == "--instant");
     // One motor of the run alone (its number, as the verbose lines give it).
@@ -65,7 +69,8 @@ fn main() {
         let tau_m = j * ra / (kv * kv + ra * b);
         let looks_like_motor = kv * kv >= 3.0 * ra * b && la / ra < tau_m;
         let mut plant =
-            SimulatedPlant::new(&truth, 1.0 / rate, 0.1, 0.005, m as u64 + 1).expect("plant");
+            SimulatedPlant::new(&truth, 1.0 / rate, noise_omega, noise_current, m as u64 + 1)
+                .expect("plant");
         if adc_bits > 0 {
             (plant.resolution.omega, plant.resolution.current) = limits.adc_counts(adc_bits);
         }

@@ -10,6 +10,7 @@ use crate::device::design::{design, Design};
 use crate::device::experiment::{coast_start, fast_input, record, slow_input};
 use crate::device::hardware::{Drive, Link, Watchdog};
 use crate::device::job::JobEnd;
+use crate::device::offset::coast_offset;
 use crate::device::probe::{probe, quiet, Probed, QUIET_BUDGET};
 use crate::device::record_store::RecordStore;
 use crate::fit::space::ProblemSpec;
@@ -51,6 +52,8 @@ fn probe_and_record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     bench.enter(JobStage::Experiment);
     store.clear(true);
     record_designed(bench, store, &d, &probed)?;
+    let residual = coast_offset(&store.records(), &probed.rest, probed.electrical.tau_e);
+    store.shift_current(residual);
     Ok(plan)
 }
 

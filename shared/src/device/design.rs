@@ -193,6 +193,7 @@ mod tests {
                 current_offset: 0.0,
                 sigma_omega: 0.1,
                 sigma_current: 0.005,
+                offset_readings: 5000,
             },
             ramp: Ramp {
                 breakaway: Some(1.0),

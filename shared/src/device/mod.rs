@@ -13,6 +13,7 @@ pub mod experiment;
 pub mod flash_store;
 pub mod hardware;
 pub mod job;
+pub mod offset;
 pub mod plant;
 pub mod probe;
 pub mod record_store;

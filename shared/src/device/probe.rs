@@ -32,7 +32,8 @@ const REST_WINDOW: u32 = 64;
 /// Time over which the current sensor's offset is averaged [s] (at least [`REST_WINDOW`]
 /// readings): the records' currents carry what is left of the offset as a constant error the
 /// fit does not model, so it must lie well under the fit's own resolution of a constant
-/// (σ over the square root of the records' samples).
+/// (σ over the square root of the records' samples). What is left is read again in the slow
+/// record's coast-down ([`crate::device::offset`]).
 const OFFSET_SECONDS: f32 = 0.25;
 /// Longest wait for the shaft to stand still before anything is applied [s].
 const REST_SECONDS: f32 = 20.0;
@@ -112,6 +113,8 @@ pub struct Rest {
     pub sigma_omega: f32,
     /// Standard deviation of the current reading at rest [A].
     pub sigma_current: f32,
+    /// Drive readings the offset is the mean of.
+    pub offset_readings: u32,
 }
 
 impl Rest {
@@ -169,6 +172,7 @@ pub fn rest_and_offset<D: Drive, L: Link, W: Watchdog>(
                 current_offset: offset,
                 sigma_omega: libm::sqrtf(var_w),
                 sigma_current: libm::sqrtf(var_i),
+                offset_readings: readings,
             });
         }
     }

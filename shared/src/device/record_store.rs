@@ -109,6 +109,18 @@ impl<const N: usize> RecordStore<N> {
     }
 
     /// Samples received of a streamed record (the first).
+    /// Subtract `delta` from every current reading held (an offset of the current sensor
+    /// found after the records were taken).
+    pub(super) fn shift_current(&mut self, delta: f32) {
+        let end = match self.count {
+            0 => 0,
+            c => self.segments[c - 1].start + self.segments[c - 1].len,
+        };
+        for c in &mut self.current[..end] {
+            *c -= delta;
+        }
+    }
+
     pub(super) fn streamed(&self) -> usize {
         match self.count {
             0 => 0,
