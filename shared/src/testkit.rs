@@ -87,7 +87,23 @@ impl Owned {
     /// within `voltage`, ending with a coast-down) run on a noise-free [`SimulatedPlant`] of
     /// `p`, one drive sample per record sample.
     pub fn commissioning(p: &ModelParams, n: usize, dt: f32, voltage: f32) -> Owned {
-        let mut plant = SimulatedPlant::new(p, dt, 0.0, 0.0, 1).unwrap();
+        let quiet = Noise {
+            omega: 0.0,
+            current: 0.0,
+        };
+        Owned::commissioning_noisy(p, n, dt, voltage, quiet, 1)
+    }
+
+    /// [`Owned::commissioning`] with the plant's sensor `noise` drawn from `seed`.
+    pub fn commissioning_noisy(
+        p: &ModelParams,
+        n: usize,
+        dt: f32,
+        voltage: f32,
+        noise: Noise,
+        seed: u64,
+    ) -> Owned {
+        let mut plant = SimulatedPlant::new(p, dt, noise.omega, noise.current, seed).unwrap();
         let mut o = Owned {
             coast_from: Some(coast_start(n)),
             ..Owned::zeros(dt, n)

@@ -10,7 +10,7 @@ use crate::fit::score_blocks::ScoreBlocks;
 use crate::fit::space::Space;
 use crate::fit::sums::{RecordSums, Totals, SHIFT};
 use crate::fit::torque_scale::ScaleSlot;
-use crate::fit::workspace::{FitWorkspace, JacobianSims};
+use crate::fit::workspace::{with_sims, JacobianSims};
 use crate::model::params::ModelParams;
 use crate::model::record::Record;
 use crate::model::rounding::Rounding;
@@ -79,48 +79,15 @@ impl Objective<'_, '_> {
     ) -> Option<()> {
         // The simulators in the lent workspace (a board's static RAM), or on a frame of
         // their own.
-        match self.workspace.and_then(FitWorkspace::borrow_sims) {
-            Some(mut sims) => {
-                self.normal_equations_in(&mut sims, space, u, h, central, out, scores)
+        with_sims(self.workspace, |sims| {
+            match Simulator::averaged_path(self.records) {
+                true => self.normal_equations_of::<true>(sims, space, u, h, central, out, scores),
+                false => self.normal_equations_of::<false>(sims, space, u, h, central, out, scores),
             }
-            None => self.normal_equations_on_frame(space, u, h, central, out, scores),
-        }
+        })
     }
 
-    /// [`Objective::normal_equations_sums`] with its simulators on this frame.
-    #[inline(never)]
-    fn normal_equations_on_frame(
-        &self,
-        space: &Space,
-        u: &[f32],
-        h: f32,
-        central: bool,
-        out: &mut NormalEquations,
-        scores: Option<&mut ScoreBlocks>,
-    ) -> Option<()> {
-        let mut sims = JacobianSims::new();
-        self.normal_equations_in(&mut sims, space, u, h, central, out, scores)
-    }
-
-    /// [`Objective::normal_equations_sums`] with the simulators in `sims` (empty).
-    #[allow(clippy::too_many_arguments)]
-    fn normal_equations_in(
-        &self,
-        sims: &mut JacobianSims,
-        space: &Space,
-        u: &[f32],
-        h: f32,
-        central: bool,
-        out: &mut NormalEquations,
-        scores: Option<&mut ScoreBlocks>,
-    ) -> Option<()> {
-        match Simulator::averaged_path(self.records) {
-            true => self.normal_equations_of::<true>(sims, space, u, h, central, out, scores),
-            false => self.normal_equations_of::<false>(sims, space, u, h, central, out, scores),
-        }
-    }
-
-    /// [`Objective::normal_equations_in`], of averaged readings with `AVERAGED`
+    /// [`Objective::normal_equations_sums`], of averaged readings with `AVERAGED`
     /// ([`Simulator::sample`]). Per record, `sims` holds the nominal parameter set's
     /// simulator, then one per perturbed point, then the nominal set's from the shifted
     /// initial speed (if the record has one): built on a frame of their own

@@ -169,14 +169,11 @@ fn room(u: &[f32], w: &[f32; MAX_FREE], h: f32, sign: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::experiment::{coast_start, slow_input};
-    use crate::device::hardware::Drive;
-    use crate::device::plant::SimulatedPlant;
     use crate::fit::normal_equations::NormalEquations;
     use crate::fit::objective::Objective;
     use crate::fit::space::ProblemSpec;
     use crate::model::params::ModelParams;
-    use crate::model::record::Record;
+    use crate::testkit::Owned;
 
     extern crate std;
     use std::vec::Vec;
@@ -218,25 +215,8 @@ mod tests {
             0.014117234,
         )
         .with(ParamId::Tc, 0.05 * 0.014117234 * 40.0);
-        let (n, dt) = (1600, 5e-3);
-        let mut plant = SimulatedPlant::new(&p, dt, 0.0, 0.0, 7).unwrap();
-        let (mut v, mut omega, mut current) = (Vec::new(), Vec::new(), Vec::new());
-        for k in 0..n {
-            let input = slow_input(k, n, 50.0);
-            let s = plant.apply(input);
-            v.push(input.recorded_volts());
-            omega.push(s.omega);
-            current.push(s.current);
-        }
-        let records = [Record {
-            dt,
-            v: &v,
-            omega: &omega,
-            current: Some(&current),
-            load: None,
-            coast_from: Some(coast_start(n)),
-            averaged: 1,
-        }];
+        let slow = Owned::commissioning(&p, 1600, 5e-3, 50.0);
+        let records = [slow.record(true, false)];
         let objective = Objective::new(&records).unwrap();
         let mut spec = ProblemSpec::default();
         spec.free(ParamId::Tc);

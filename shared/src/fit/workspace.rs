@@ -35,11 +35,30 @@ impl FitWorkspace {
     }
 
     /// The simulators, emptied, unless an evaluation holds them.
-    pub(crate) fn borrow_sims(&self) -> Option<core::cell::RefMut<'_, JacobianSims>> {
+    fn borrow_sims(&self) -> Option<core::cell::RefMut<'_, JacobianSims>> {
         let mut sims = self.sims.try_borrow_mut().ok()?;
         sims.clear();
         Some(sims)
     }
+}
+
+/// Run `f` on the simulators of `workspace` when one is lent and free, else on simulators
+/// on a frame of their own (out of line, so that the workspace's caller does not hold that
+/// frame on a board's stack).
+pub(crate) fn with_sims<R>(
+    workspace: Option<&FitWorkspace>,
+    f: impl FnOnce(&mut JacobianSims) -> R,
+) -> R {
+    match workspace.and_then(FitWorkspace::borrow_sims) {
+        Some(mut sims) => f(&mut sims),
+        None => on_frame(f),
+    }
+}
+
+/// `f` on simulators of this frame.
+#[inline(never)]
+fn on_frame<R>(f: impl FnOnce(&mut JacobianSims) -> R) -> R {
+    f(&mut JacobianSims::new())
 }
 
 impl Default for FitWorkspace {
@@ -51,15 +70,14 @@ impl Default for FitWorkspace {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::experiment::{coast_start, slow_input};
-    use crate::device::hardware::Drive;
-    use crate::device::plant::SimulatedPlant;
     use crate::fit::normal_equations::NormalEquations;
     use crate::fit::objective::Objective;
     use crate::fit::space::{ProblemSpec, Space};
     use crate::model::params::ModelParams;
     use crate::model::record::Record;
+    use crate::model::synth::Noise;
     use crate::param_id::ParamId;
+    use crate::testkit::Owned;
 
     #[test]
     fn the_normal_equations_in_a_lent_workspace_are_those_on_the_frame() {
@@ -67,24 +85,14 @@ mod tests {
         // motor with Coulomb friction, its simulators in the workspace or on the frame:
         // the same sums to the bit, and the workspace holds the simulators it ran.
         let p = ModelParams::PAPER_MOTOR.with(ParamId::Tc, 0.02);
-        let (n, dt) = (600, 2e-3);
-        let mut plant = SimulatedPlant::new(&p, dt, 0.5, 0.05, 3).unwrap();
-        let (mut v, mut omega, mut current) = (Vec::new(), Vec::new(), Vec::new());
-        for k in 0..n {
-            let input = slow_input(k, n, 24.0);
-            let s = plant.apply(input);
-            v.push(input.recorded_volts());
-            omega.push(s.omega);
-            current.push(s.current);
-        }
+        let noise = Noise {
+            omega: 0.5,
+            current: 0.05,
+        };
+        let slow = Owned::commissioning_noisy(&p, 600, 2e-3, 24.0, noise, 3);
         let records = [Record {
-            dt,
-            v: &v,
-            omega: &omega,
-            current: Some(&current),
-            load: None,
-            coast_from: Some(coast_start(n)),
             averaged: 4,
+            ..slow.record(true, false)
         }];
         let mut spec = ProblemSpec::default();
         spec.free(ParamId::Tc);

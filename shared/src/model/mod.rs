@@ -17,3 +17,4 @@ pub mod rounding;
 pub mod sim;
 pub mod step_mean;
 pub mod synth;
+pub(crate) mod trig;
