@@ -101,9 +101,11 @@ pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
     }
     let (mut sum_w, mut sum_i) = (0.0f32, 0.0f32);
     if averaged {
-        // Sample 0: the mean of the readings at 0 V before the record starts (a record
-        // starts from rest, whose state they read, with the others' noise).
-        for _ in 0..m {
+        // Sample 0: the mean over the step that ends where the record starts, at 0 V (a
+        // record starts from rest, or after the quiet wait ran out, braking; the fit reads
+        // its starting state from this mean, `Simulator::for_record`): the readings at the
+        // step's last m - 1 drive samples here, its end's below.
+        for _ in 1..m {
             let Some(s) = bench.guarded(Bridge::Drive(0.0), speed_share)? else {
                 return Ok(false);
             };
@@ -116,7 +118,7 @@ pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
         let Some(s) = bench.guarded(input(k), speed_share)? else {
             return Ok(false);
         };
-        if averaged && b > 0 {
+        if averaged {
             sum_w += s.omega;
             sum_i += s.current;
         }
@@ -169,6 +171,61 @@ mod tests {
             Bridge::Drive(v) => *v <= volts,
             Bridge::Open => true,
         }));
+    }
+
+    /// A drive whose tacho reads its own sample count (1 rad/s a sample), no current.
+    struct Counting(f32);
+
+    impl Drive for Counting {
+        fn dt(&self) -> f32 {
+            1e-3
+        }
+        fn step(&mut self, _volts: f32) -> crate::device::hardware::Sample {
+            self.0 += 1.0;
+            crate::device::hardware::Sample {
+                omega: self.0,
+                current: 0.0,
+            }
+        }
+        fn coast(&mut self) -> crate::device::hardware::Sample {
+            self.step(0.0)
+        }
+        fn stop(&mut self) {}
+    }
+
+    struct Silent;
+
+    impl crate::device::hardware::Link for Silent {
+        fn send(&mut self, _msg: &crate::wire::protocol::BoardMessage) {}
+        fn poll(&mut self) -> Option<crate::wire::protocol::HostMessage> {
+            None
+        }
+    }
+
+    #[test]
+    fn an_averaged_sample_is_the_mean_over_the_step_ending_at_it_the_first_too() {
+        // Readings 1, 2, 3, ... at the drive's samples: the mean over each step of m ends
+        // at the record's sample, so consecutive samples lie m apart, the first included
+        // (its step the m readings at 0 V up to the record's start, the start's own last).
+        let (mut drive, mut link, mut dog) =
+            (Counting(0.0), Silent, crate::device::hardware::NoWatchdog);
+        let limits = crate::wire::limits::Limits::DEFAULT;
+        let mut bench = Bench::new(&mut drive, &mut link, &mut dog, limits);
+        bench.averaged = true;
+        let mut store = RecordStore::<64>::new();
+        store.clear(true);
+        let plan = RecordPlan {
+            step: 4,
+            samples: 5,
+        };
+        let done = record(&mut bench, &mut store, plan, 1.0, None, |_| {
+            Bridge::Drive(0.0)
+        });
+        assert_eq!(done, Ok(true));
+        let records = store.records();
+        // Readings 1..=4 before the start (the 4th at it), then 5..=8, ...
+        assert_eq!(records[0].omega, [2.5, 6.5, 10.5, 14.5, 18.5]);
+        assert_eq!(records[0].averaged, 4);
     }
 
     #[test]

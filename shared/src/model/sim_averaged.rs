@@ -54,7 +54,37 @@ impl Simulator {
             },
         });
         s.reset(init);
+        if init.omega != 0.0 {
+            s.start_after_quiet_step(r.load_at(0));
+        }
         Ok(s)
+    }
+
+    /// A record of averaged readings that starts in motion: its first sample is the mean
+    /// over the step before it (the reading the simulator reset to), not the state at its
+    /// start. That step held 0 V with the bridge closed (a board's records start after its
+    /// quiet wait, [`crate::device::probe::quiet`]; docs/CONTRACTS.md), so the state at the
+    /// start is the end of a step of the motor (paper Eq. 5) from the start whose mean
+    /// ([`StepMean::start_of`]) is that reading; Coulomb friction a held load, as in
+    /// [`Simulator::average_over_step`]. (A shaft braking from speed at 0 V changes its
+    /// current within the step: taken for the state, the mean's lag left a current misfit
+    /// decaying with La/Ra that pushed the fit to wide searches,
+    /// docs/measurements/commissioning.md.)
+    fn start_after_quiet_step(&mut self, tl: f32) {
+        let (i, w) = (self.current.hi, self.omega.hi);
+        let tc = if self.friction {
+            self.effect(ParamId::Tc)
+        } else {
+            0.0
+        };
+        let load = tl + tc * sign(w);
+        let Some(a) = &self.averaged else { return };
+        let Some((i0, w0)) = a.coeffs.start_of((i, w), 0.0, load) else {
+            return;
+        };
+        let (di, dw) = self.disc.increments(i0, w0, 0.0, load);
+        self.current = Compensated::new(i0 + di);
+        self.omega = Compensated::new(w0 + dw);
     }
 
     /// The mean `[i, w]` of `m` drive steps over the step just taken, from its start

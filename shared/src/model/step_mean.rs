@@ -157,6 +157,23 @@ impl StepMean {
         (i0 + di, w0 + dw)
     }
 
+    /// The start `(i0, w0)` of a step whose mean `[i, w]` with `volts` and `load` held is
+    /// `mean`: `(I + P)^-1 (mean - qv v - qt tl)` (the inverse of [`StepMean::linear`]).
+    /// `None` where `I + P` is singular (a mean that no start gives, as an undamped
+    /// oscillation's over a whole period).
+    pub fn start_of(&self, mean: (f32, f32), volts: f32, load: f32) -> Option<(f32, f32)> {
+        let a = [
+            [1.0 + self.p[0][0], self.p[0][1]],
+            [self.p[1][0], 1.0 + self.p[1][1]],
+        ];
+        let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+        let yi = mean.0 - self.qv[0] * volts - self.qt[0] * load;
+        let yw = mean.1 - self.qv[1] * volts - self.qt[1] * load;
+        let i0 = (a[1][1] * yi - a[0][1] * yw) / det;
+        let w0 = (a[0][0] * yw - a[1][0] * yi) / det;
+        (i0.is_finite() && w0.is_finite()).then_some((i0, w0))
+    }
+
     /// Mean current over the step with the rotor held.
     pub fn held_rotor(&self, i0: f32, volts: f32) -> f32 {
         i0 + self.pe * i0 + self.qe * volts
@@ -299,6 +316,73 @@ mod tests {
             lagging += usize::from((instant.reading().current as f64 - wi / m as f64).abs() > 1e-3);
         }
         assert!(lagging > 10, "{lagging}");
+    }
+
+    #[test]
+    fn a_record_of_averaged_readings_starting_in_motion_starts_where_its_quiet_step_ended() {
+        use crate::model::record::Record;
+        use crate::model::sim::{InitialState, Simulator, StepInput};
+        // The drive brakes a turning shaft at 0 V for one record step (m of its own), the
+        // mean of its readings the record's first sample; then 6 V.
+        let p = ModelParams::PAPER_MOTOR.with(ParamId::Tc, 0.05);
+        let (n, dt, m) = (60usize, 0.01f32, 20u32);
+        let mut drive = Simulator::new(&p, dt / m as f32, InitialState::REST).unwrap();
+        drive.reset(InitialState {
+            current: 0.0,
+            omega: 150.0,
+        });
+        let hold = |v: f32| StepInput {
+            v,
+            tl: 0.0,
+            measured_omega: None,
+            opens: false,
+        };
+        let mut drive_mean = |v: f32| {
+            let (mut si, mut sw) = (0.0f64, 0.0f64);
+            for _ in 0..m {
+                drive.apply(&hold(v));
+                si += drive.reading().current as f64;
+                sw += drive.reading().omega as f64;
+            }
+            (si / m as f64, sw / m as f64)
+        };
+        let first = drive_mean(0.0);
+        let v = std::vec![6.0f32; n];
+        let zeros = std::vec![0.0f32; n];
+        let r = Record {
+            dt,
+            v: &v,
+            omega: &zeros,
+            current: Some(&zeros),
+            load: None,
+            coast_from: None,
+            averaged: m,
+        };
+        let init = InitialState {
+            current: first.0 as f32,
+            omega: first.1 as f32,
+        };
+        let mut sim = Simulator::for_record(&p, &r, init).unwrap();
+        let y = sim.sample::<true>();
+        assert_eq!((y.current, y.omega), (init.current, init.omega));
+        let mut worst = 0.0f64;
+        for k in 0..n - 1 {
+            sim.apply_record::<true>(&hold(v[k]));
+            let (wi, _) = drive_mean(v[k]);
+            worst = worst.max((sim.sample::<true>().current as f64 - wi).abs());
+        }
+        assert!(worst < 1e-3, "{worst}");
+        // Taken for the state at the record's start, the mean lags it by far more.
+        let mut lagging = Simulator::new(&p, dt, init).unwrap();
+        lagging.apply(&hold(v[0]));
+        let mut drive = Simulator::new(&p, dt / m as f32, InitialState::REST).unwrap();
+        drive.reset(InitialState {
+            current: 0.0,
+            omega: 150.0,
+        });
+        (0..2 * m).for_each(|j| drive.apply(&hold(if j < m { 0.0 } else { 6.0 })));
+        let lag = (lagging.reading().current - drive.reading().current).abs();
+        assert!(lag > 50.0 * 1e-3, "{lag}");
     }
 
     #[test]
