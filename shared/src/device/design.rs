@@ -26,7 +26,8 @@
 //! `docs/measurements/commissioning.md`.)
 
 use crate::device::experiment::coast_start;
-use crate::device::probe::{Mechanical, Probed, KV_FLOOR, QUIET_BUDGET, SPEED_SHARE};
+use crate::device::probe::{Mechanical, Probed, KV_FLOOR, SPEED_SHARE};
+use crate::device::rest::QUIET_BUDGET;
 use crate::wire::limits::Limits;
 use crate::wire::protocol::Refusal;
 
@@ -184,7 +185,8 @@ mod tests {
 
     const DT: f32 = 5e-5;
 
-    use crate::device::probe::{Electrical, Mechanical, Ramp, Rest};
+    use crate::device::probe::{Electrical, Mechanical, Ramp};
+    use crate::device::rest::Rest;
 
     /// A probe that took 3 s and found the shaft breaking away at 1 V.
     fn probe(ra: f32, tau_e: f32, kv: f32, tau_m: f32) -> Probed {

@@ -18,6 +18,7 @@ pub mod plant;
 pub mod probe;
 pub mod record_store;
 pub mod report;
+pub mod rest;
 pub mod service;
 pub mod trace;
 pub mod unpinned;

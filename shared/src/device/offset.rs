@@ -9,7 +9,7 @@
 //! over 5 s instead, 98.7 % with it read again here (docs/measurements/commissioning.md).
 //! The coast-down holds many more readings than the probe's window, at no cost in time.
 
-use crate::device::probe::Rest;
+use crate::device::rest::Rest;
 use crate::model::record::Record;
 
 /// La/Ra left out at the start of the coast-down: the freewheel current is gone within one.

@@ -2,7 +2,7 @@
 //! experiment, each stage bounded in time and watched against the limits at every sample
 //! (the [`Bench`]), in the order drive calibrations use (measure before exciting):
 //!
-//! 1. [`rest_and_offset`]: at 0 V, wait for the shaft to stand still, then read the current
+//! 1. [`rest_and_offset`] (its module, [`crate::device::rest`]): at 0 V, wait for the shaft to stand still, then read the current
 //!    sensor's offset (subtracted from then on) and the sensors' noise;
 //! 2. [`ramp`]: the voltage raised from 0 until the current reaches a calibration current,
 //!    or the shaft breaks away (the break-away voltage), or the voltage limit;
@@ -24,22 +24,10 @@
 use crate::device::bench::Bench;
 use crate::device::hardware::{Bridge, Drive, Link, Watchdog};
 use crate::device::job::JobEnd;
+use crate::device::rest::{quiet, rest_and_offset, Rest, QUIET_BUDGET};
 use crate::device::trace::Trace;
 use crate::wire::protocol::Refusal;
 
-/// Samples of one look at the shaft at rest.
-const REST_WINDOW: u32 = 64;
-/// Time over which the current sensor's offset is averaged [s] (at least [`REST_WINDOW`]
-/// readings): the records' currents carry what is left of the offset as a constant error the
-/// fit does not model, so it must lie well under the fit's own resolution of a constant
-/// (σ over the square root of the records' samples). What is left is read again in the slow
-/// record's coast-down ([`crate::device::offset`]).
-const OFFSET_SECONDS: f32 = 0.25;
-/// Longest wait for the shaft to stand still before anything is applied [s].
-const REST_SECONDS: f32 = 20.0;
-/// Largest current sensor offset taken for an offset rather than a fault (share of the
-/// current limit).
-const MAX_OFFSET: f32 = 0.1;
 /// The ramp's calibration current (share of the current limit).
 const CALIBRATION_CURRENT: f32 = 0.25;
 /// Time the ramp takes from 0 to the voltage limit [s].
@@ -50,8 +38,6 @@ pub const SPEED_SHARE: f32 = 0.7;
 const STEP_CURRENT: f32 = 0.6;
 /// Points of a probe's traces.
 const TRACE: usize = 128;
-/// Share of the budget a wait for the shaft to calm down may take.
-pub const QUIET_BUDGET: f32 = 0.05;
 /// Share of the budget the mechanical step may take at most.
 const MECHANICAL_BUDGET: f32 = 0.3;
 /// Share of the budget kept for the experiment's records when the mechanical step starts.
@@ -61,12 +47,6 @@ const RECORDS_BUDGET: f32 = 0.5;
 pub const KV_FLOOR: f32 = 1e-6;
 /// A first-order response's rise at its time constant, 1 - 1/e.
 const RISE_AT_TAU: f32 = 1.0 - 1.0 / core::f32::consts::E;
-
-/// Speed above which the shaft turns: six deviations of the speed reading's noise, at least
-/// 0.2 % of the speed limit (a few counts of a 12-bit tacho).
-fn motion_threshold(sigma_omega: f32, speed_limit: f32) -> f32 {
-    (6.0 * sigma_omega).max(0.002 * speed_limit)
-}
 
 /// What the four stages measured, and the time they took.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,113 +82,6 @@ pub fn probe<D: Drive, L: Link, W: Watchdog>(bench: &mut Bench<D, L, W>) -> Resu
         mechanical,
         seconds: bench.seconds(),
     })
-}
-
-/// The shaft at rest: the current sensor's offset and the sensors' noise.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Rest {
-    /// Current read at 0 V with the shaft at rest [A].
-    pub current_offset: f32,
-    /// Standard deviation of the speed reading at rest [rad/s].
-    pub sigma_omega: f32,
-    /// Standard deviation of the current reading at rest [A].
-    pub sigma_current: f32,
-    /// Drive readings the offset is the mean of.
-    pub offset_readings: u32,
-}
-
-impl Rest {
-    /// Speed above which the shaft turns ([`motion_threshold`]).
-    pub fn motion(&self, speed_limit: f32) -> f32 {
-        motion_threshold(self.sigma_omega, speed_limit)
-    }
-
-    /// Current below which none flows: four deviations of its noise, at least 1 % of the
-    /// current limit.
-    fn no_current(&self, current_limit: f32) -> f32 {
-        (4.0 * self.sigma_current).max(0.01 * current_limit)
-    }
-}
-
-/// Stage 1: at 0 V, wait (up to [`REST_SECONDS`], or a third of the budget) until the speed
-/// reads under the motion threshold ([`motion_threshold`]) and no longer changes from one look to
-/// the next; then the current read with the bridge open (no current can flow) is the
-/// sensor's offset (refused as a fault above [`MAX_OFFSET`] of the limit) and the spread of
-/// the readings at rest is their noise.
-#[inline(never)]
-pub fn rest_and_offset<D: Drive, L: Link, W: Watchdog>(
-    bench: &mut Bench<D, L, W>,
-) -> Result<Rest, JobEnd> {
-    let limits = bench.limits;
-    let looks = (REST_SECONDS.min(limits.budget / 3.0) / (REST_WINDOW as f32 * bench.dt())) as u32;
-    let mut previous = f32::NAN;
-    for _ in 0..looks.max(2) {
-        let (mut sw, mut sww, mut si, mut sii) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
-        for _ in 0..REST_WINDOW {
-            let s = bench.apply(Bridge::Drive(0.0))?;
-            (sw, sww) = (sw + s.omega, sww + s.omega * s.omega);
-            (si, sii) = (si + s.current, sii + s.current * s.current);
-        }
-        let n = REST_WINDOW as f32;
-        let (w, i) = (sw / n, si / n);
-        let var_w = (sww / n - w * w).max(0.0);
-        let var_i = (sii / n - i * i).max(0.0);
-        let still = (w - previous).abs() <= 4.0 * libm::sqrtf(var_w / n) + 1e-4 * limits.speed;
-        previous = w;
-        // Standing: no faster than the motion threshold (a shaft still braking at 0 V draws
-        // -Kv ω / Ra, which would be taken for the sensor's offset).
-        if w.abs() <= motion_threshold(libm::sqrtf(var_w), limits.speed) && still {
-            // The offset with the bridge open: no current can flow, whatever the shaft does.
-            let readings = ((OFFSET_SECONDS / bench.dt()) as u32).max(REST_WINDOW);
-            let mut offset = 0.0f32;
-            for _ in 0..readings {
-                offset += bench.apply(Bridge::Open)?.current;
-            }
-            let offset = offset / readings as f32;
-            if offset.abs() > MAX_OFFSET * limits.current {
-                return Err(JobEnd::Refused(Refusal::SensorFault));
-            }
-            return Ok(Rest {
-                current_offset: offset,
-                sigma_omega: libm::sqrtf(var_w),
-                sigma_current: libm::sqrtf(var_i),
-                offset_readings: readings,
-            });
-        }
-    }
-    Err(JobEnd::Refused(Refusal::NotAtRest))
-}
-
-/// Drive 0 V until no current flows and the shaft stands, for at most `seconds`; then go on
-/// whatever the shaft does (a record may start in motion). Judged on means over windows of
-/// [`REST_WINDOW`] samples, each within three of its deviations of zero (and 0.01 % of the
-/// limit): a heavy shaft still turning at a fraction of a radian per second reads as rest
-/// sample by sample, yet the fit would take it for rest, with a braking current that rest
-/// cannot have.
-pub fn quiet<D: Drive, L: Link, W: Watchdog>(
-    bench: &mut Bench<D, L, W>,
-    rest: &Rest,
-    seconds: f32,
-) -> Result<(), JobEnd> {
-    let limits = bench.limits;
-    let n = REST_WINDOW as f32;
-    let within = |sigma: f32, limit: f32| 3.0 * sigma / libm::sqrtf(n) + 1e-4 * limit;
-    let (still_w, no_i) = (
-        within(rest.sigma_omega, limits.speed),
-        within(rest.sigma_current, limits.current),
-    );
-    let windows = (seconds.max(0.0) / (n * bench.dt())) as u32;
-    for _ in 0..windows.max(1) {
-        let (mut sw, mut si) = (0.0f32, 0.0f32);
-        for _ in 0..REST_WINDOW {
-            let s = bench.apply(Bridge::Drive(0.0))?;
-            (sw, si) = (sw + s.omega, si + s.current);
-        }
-        if (sw / n).abs() <= still_w && (si / n).abs() <= no_i {
-            break;
-        }
-    }
-    Ok(())
 }
 
 /// The ramp of stage 2.

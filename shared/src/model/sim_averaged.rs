@@ -63,7 +63,7 @@ impl Simulator {
     /// A record of averaged readings that starts in motion: its first sample is the mean
     /// over the step before it (the reading the simulator reset to), not the state at its
     /// start. That step held 0 V with the bridge closed (a board's records start after its
-    /// quiet wait, [`crate::device::probe::quiet`]; docs/CONTRACTS.md), so the state at the
+    /// quiet wait, [`crate::device::rest::quiet`]; docs/CONTRACTS.md), so the state at the
     /// start is the end of a step of the motor (paper Eq. 5) from the start whose mean
     /// ([`StepMean::start_of`]) is that reading; Coulomb friction a held load, as in
     /// [`Simulator::average_over_step`]. (A shaft braking from speed at 0 V changes its
