@@ -1,13 +1,24 @@
 //! Test support: synthetic records owned in vectors.
 
 use crate::device::experiment::{coast_start, slow_input};
-use crate::device::hardware::Drive;
+use crate::device::hardware::{Drive, Link};
 use crate::device::plant::SimulatedPlant;
 use crate::model::params::ModelParams;
 use crate::model::profile::{Experiment, Profile};
 use crate::model::record::Record;
 use crate::model::synth::{synthesize, Buffers, Noise};
+use crate::wire::protocol::{BoardMessage, HostMessage};
 use std::vec::Vec;
+
+/// A link to a host that sends nothing and reads nothing (device stages run alone).
+pub struct SilentLink;
+
+impl Link for SilentLink {
+    fn send(&mut self, _msg: &BoardMessage) {}
+    fn poll(&mut self) -> Option<HostMessage> {
+        None
+    }
+}
 
 pub struct Owned {
     pub dt: f32,

@@ -137,6 +137,9 @@ pub fn record<const N: usize, D: Drive, L: Link, W: Watchdog>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::device::hardware::{NoWatchdog, Sample};
+    use crate::testkit::SilentLink;
+    use crate::wire::limits::Limits;
 
     #[test]
     fn the_slow_record_steps_half_quarter_full_then_coasts() {
@@ -180,26 +183,17 @@ mod tests {
         fn dt(&self) -> f32 {
             1e-3
         }
-        fn step(&mut self, _volts: f32) -> crate::device::hardware::Sample {
+        fn step(&mut self, _volts: f32) -> Sample {
             self.0 += 1.0;
-            crate::device::hardware::Sample {
+            Sample {
                 omega: self.0,
                 current: 0.0,
             }
         }
-        fn coast(&mut self) -> crate::device::hardware::Sample {
+        fn coast(&mut self) -> Sample {
             self.step(0.0)
         }
         fn stop(&mut self) {}
-    }
-
-    struct Silent;
-
-    impl crate::device::hardware::Link for Silent {
-        fn send(&mut self, _msg: &crate::wire::protocol::BoardMessage) {}
-        fn poll(&mut self) -> Option<crate::wire::protocol::HostMessage> {
-            None
-        }
     }
 
     #[test]
@@ -207,10 +201,8 @@ mod tests {
         // Readings 1, 2, 3, ... at the drive's samples: the mean over each step of m ends
         // at the record's sample, so consecutive samples lie m apart, the first included
         // (its step the m readings at 0 V up to the record's start, the start's own last).
-        let (mut drive, mut link, mut dog) =
-            (Counting(0.0), Silent, crate::device::hardware::NoWatchdog);
-        let limits = crate::wire::limits::Limits::DEFAULT;
-        let mut bench = Bench::new(&mut drive, &mut link, &mut dog, limits);
+        let (mut drive, mut link, mut dog) = (Counting(0.0), SilentLink, NoWatchdog);
+        let mut bench = Bench::new(&mut drive, &mut link, &mut dog, Limits::DEFAULT);
         bench.averaged = true;
         let mut store = RecordStore::<64>::new();
         store.clear(true);

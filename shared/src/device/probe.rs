@@ -2,8 +2,9 @@
 //! experiment, each stage bounded in time and watched against the limits at every sample
 //! (the [`Bench`]), in the order drive calibrations use (measure before exciting):
 //!
-//! 1. [`rest_and_offset`] (its module, [`crate::device::rest`]): at 0 V, wait for the shaft to stand still, then read the current
-//!    sensor's offset (subtracted from then on) and the sensors' noise;
+//! 1. [`rest_and_offset`] ([`crate::device::rest`]): at 0 V, wait for the shaft and its
+//!    current to stand still, then read the current sensor's offset (subtracted from then
+//!    on) and the sensors' noise;
 //! 2. [`ramp`]: the voltage raised from 0 until the current reaches a calibration current,
 //!    or the shaft breaks away (the break-away voltage), or the voltage limit;
 //! 3. [`electrical_step`]: a voltage step at standstill, sampled at the drive's rate:

@@ -157,8 +157,8 @@ mod tests {
     use super::*;
     use crate::device::hardware::{NoWatchdog, Sample};
     use crate::rng::{self, Rng};
+    use crate::testkit::SilentLink;
     use crate::wire::limits::Limits;
-    use crate::wire::protocol::{BoardMessage, HostMessage};
 
     /// A shaft at rest whose armature current still decays at 0 V (from `-0.5` A, with a
     /// time constant of 60 samples, after a run before), sensors with white noise of 0.1
@@ -188,15 +188,6 @@ mod tests {
         fn stop(&mut self) {}
     }
 
-    struct Silent;
-
-    impl Link for Silent {
-        fn send(&mut self, _msg: &BoardMessage) {}
-        fn poll(&mut self) -> Option<HostMessage> {
-            None
-        }
-    }
-
     #[test]
     fn a_decaying_current_is_waited_for_and_not_taken_for_noise() {
         for seed in 0..8 {
@@ -204,7 +195,7 @@ mod tests {
                 k: 0.0,
                 rng: rng::seeded(seed),
             };
-            let (mut link, mut dog) = (Silent, NoWatchdog);
+            let (mut link, mut dog) = (SilentLink, NoWatchdog);
             let mut bench = Bench::new(&mut drive, &mut link, &mut dog, Limits::DEFAULT);
             let rest = rest_and_offset(&mut bench).unwrap();
             // The noise within a fifth of the sensor's (a window's spread over the decay

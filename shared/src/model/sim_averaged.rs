@@ -60,6 +60,15 @@ impl Simulator {
         Ok(s)
     }
 
+    /// The load `tl` and Coulomb friction against a shaft turning at `w`, both held over a
+    /// step (the linear mean's load, [`StepMean`]).
+    fn load_while_turning(&self, tl: f32, w: f32) -> f32 {
+        match self.friction {
+            true => tl + self.effect(ParamId::Tc) * sign(w),
+            false => tl,
+        }
+    }
+
     /// A record of averaged readings that starts in motion: its first sample is the mean
     /// over the step before it (the reading the simulator reset to), not the state at its
     /// start. That step held 0 V with the bridge closed (a board's records start after its
@@ -72,12 +81,7 @@ impl Simulator {
     /// docs/measurements/commissioning.md.)
     fn start_after_quiet_step(&mut self, tl: f32) {
         let (i, w) = (self.current.hi, self.omega.hi);
-        let tc = if self.friction {
-            self.effect(ParamId::Tc)
-        } else {
-            0.0
-        };
-        let load = tl + tc * sign(w);
+        let load = self.load_while_turning(tl, w);
         let Some(a) = &self.averaged else { return };
         let Some((i0, w0)) = a.coeffs.start_of((i, w), 0.0, load) else {
             return;
@@ -174,11 +178,6 @@ impl Simulator {
         tl: f32,
     ) {
         let (i0, w0, stuck) = start;
-        let tc = if self.friction {
-            self.effect(ParamId::Tc)
-        } else {
-            0.0
-        };
         // A stop or a break-away within the step, whatever the step's ends (a shaft may
         // stop and turn on, or break away and stick again, within one step).
         let event = self.friction_event;
@@ -186,7 +185,7 @@ impl Simulator {
         let held = stuck && self.shaft_stuck && !event;
         let (i, w) = match (through, held, self.open) {
             (true, _, open) => {
-                let load = tl + tc * sign(w0);
+                let load = self.load_while_turning(tl, w0);
                 match open {
                     true => (0.0, c.mechanical(w0, load)),
                     false => c.linear(i0, w0, v, load),
