@@ -7,7 +7,9 @@
 //! its fit metered by the board (`fit_ticks`, docs/measurements/footprint.md).
 //!
 //! `cargo run --release -p motor-id-tests --example mcu_commissioning -- [MOTORS (12)]
-//! [--only M (motor M alone, with MOTORS 1; its report on stderr)]` (some 15 s a motor on 2
+//! [--only M (motor M alone, with MOTORS 1; its report on stderr)] [--records DIR (the
+//! board's records of each motor commissioned, downloaded into DIR/M/ as `board record`
+//! writes them: for `identify --pipeline board`, `validate`)]` (some 15 s a motor on 2
 //! cores).
 
 use motor_id_shared::model::synth::table_one_motor;
@@ -23,6 +25,11 @@ fn main() {
         .iter()
         .position(|a| a == "--only")
         .and_then(|k| args.get(k + 1)?.parse().ok());
+    let records = args
+        .iter()
+        .position(|a| a == "--records")
+        .and_then(|k| args.get(k + 1))
+        .map(std::path::PathBuf::from);
     let dir = tempfile::tempdir().expect("temporary directory");
     let json = dir.path().join("board.json");
     println!("| motor | tau_m [s] | La/Ra [ms] | outcome | largest error of the six, of a pinned one in its σ; all pinned | evaluations | fit [M instructions] |");
@@ -58,6 +65,13 @@ fn main() {
                 let r = json_file(&json);
                 if only.is_some() {
                     eprintln!("truth {plant:?}\n{r:#}");
+                }
+                if let Some(root) = &records {
+                    let to = root.join(seed.to_string());
+                    std::fs::create_dir_all(&to).expect("the records' directory");
+                    let port = ["board", "--port", &q.pty, "--timeout", "600", "-q"];
+                    let got = run(&[&port[..], &["record", "--out-dir", s(&to)]].concat());
+                    assert!(got.status.success(), "board record: {got:?}");
                 }
                 let fit = field("fit_ticks") / TICKS_PER_INSTRUCTION / 1e6;
                 fits.push(fit);
