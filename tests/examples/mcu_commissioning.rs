@@ -20,16 +20,14 @@ use motor_id_tests::{json as json_file, param, run, s, Qemu};
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let wanted: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(12);
+    // The value after option `name`, if given.
+    let option = |name: &str| {
+        let k = args.iter().position(|a| a == name)?;
+        args.get(k + 1).map(String::as_str)
+    };
     // One motor alone (its number in the table).
-    let only: Option<u64> = args
-        .iter()
-        .position(|a| a == "--only")
-        .and_then(|k| args.get(k + 1)?.parse().ok());
-    let records = args
-        .iter()
-        .position(|a| a == "--records")
-        .and_then(|k| args.get(k + 1))
-        .map(std::path::PathBuf::from);
+    let only: Option<u64> = option("--only").and_then(|m| m.parse().ok());
+    let records = option("--records").map(std::path::PathBuf::from);
     let dir = tempfile::tempdir().expect("temporary directory");
     let json = dir.path().join("board.json");
     println!("| motor | tau_m [s] | La/Ra [ms] | outcome | largest error of the six, of a pinned one in its σ; all pinned | evaluations | fit [M instructions] |");

@@ -236,14 +236,7 @@ pub(crate) fn exp_minus_identity_and_integral(a: &M2, t: f64) -> (M2, M2) {
         let (c, s) = if disc < 0.0 {
             let wt = spread * t;
             let (cos, sin) = trig::cos_sin(wt);
-            (
-                cos,
-                t * if wt < 1e-4 {
-                    1.0 - wt * wt / 6.0
-                } else {
-                    sin / wt
-                },
-            )
+            (cos, t * sinc(wt, sin))
         } else {
             let dt_ = spread * t;
             (libm::cosh(dt_), t * sinhc(dt_))
@@ -298,6 +291,15 @@ fn taylor(a: &M2, t: f64) -> (M2, M2) {
         }
     }
     (g, f)
+}
+
+/// `sin x / x` for `x >= 0`, given `sin x`.
+fn sinc(x: f64, sin_x: f64) -> f64 {
+    if x < 1e-4 {
+        1.0 - x * x / 6.0
+    } else {
+        sin_x / x
+    }
 }
 
 fn sinhc(x: f64) -> f64 {

@@ -207,6 +207,43 @@ mod tests {
         (si / m as f64, sw / m as f64)
     }
 
+    /// A record of averaged readings (`m` drive samples a step) with inputs `v` and readings
+    /// `zeros` (the tests compare simulations, not fits).
+    fn averaged_inputs<'a>(
+        dt: f32,
+        m: u32,
+        v: &'a [f32],
+        zeros: &'a [f32],
+        coast_from: Option<usize>,
+    ) -> crate::model::record::Record<'a> {
+        crate::model::record::Record {
+            dt,
+            v,
+            omega: zeros,
+            current: Some(zeros),
+            load: None,
+            coast_from,
+            averaged: m,
+        }
+    }
+
+    /// The mean `(current, speed)` of `drive`'s readings after each of its next `m` steps,
+    /// the `j`-th with `input(j)`: what a drive averages into one record sample.
+    fn drive_mean(
+        drive: &mut crate::model::sim::Simulator,
+        m: u32,
+        input: impl Fn(u32) -> crate::model::sim::StepInput,
+    ) -> (f64, f64) {
+        let (mut si, mut sw) = (0.0f64, 0.0f64);
+        for j in 0..m {
+            drive.apply(&input(j));
+            let y = drive.reading();
+            si += y.current as f64;
+            sw += y.omega as f64;
+        }
+        (si / m as f64, sw / m as f64)
+    }
+
     #[test]
     fn the_mean_over_a_step_is_the_mean_of_its_drive_samples() {
         // Fast and slow electrical modes against the step, under- and over-damped motors.
@@ -251,7 +288,6 @@ mod tests {
 
     #[test]
     fn a_simulation_of_averaged_readings_meets_the_drive_s_mean_with_friction_and_coast() {
-        use crate::model::record::Record;
         use crate::model::sim::{InitialState, Simulator, StepInput};
         // The paper's motor with Coulomb friction: from rest, 6 V then 3 V, then the bridge
         // open until the shaft stops; 40 drive samples per record step.
@@ -260,15 +296,7 @@ mod tests {
         let v: std::vec::Vec<f32> = (0..n).map(|k| if k < 50 { 6.0 } else { 3.0 }).collect();
         let zeros = std::vec![0.0f32; n];
         let coast = 100;
-        let r = Record {
-            dt,
-            v: &v,
-            omega: &zeros,
-            current: Some(&zeros),
-            load: None,
-            coast_from: Some(coast),
-            averaged: m,
-        };
+        let r = averaged_inputs(dt, m, &v, &zeros, Some(coast));
         let input = |k: usize| StepInput {
             v: v[k],
             tl: 0.0,
@@ -281,17 +309,10 @@ mod tests {
         let (mut off, mut stopped) = (0, false);
         for k in 0..n - 1 {
             sim.apply_record::<true>(&input(k));
-            let (mut wi, mut ww) = (0.0f64, 0.0f64);
-            for j in 0..m {
-                drive.apply(&StepInput {
-                    opens: k == coast && j == 0,
-                    ..input(k)
-                });
-                let y = drive.reading();
-                wi += y.current as f64;
-                ww += y.omega as f64;
-            }
-            let (wi, ww) = (wi / m as f64, ww / m as f64);
+            let (wi, ww) = drive_mean(&mut drive, m, |j| StepInput {
+                opens: k == coast && j == 0,
+                ..input(k)
+            });
             let y = sim.sample::<true>();
             let close = (y.current as f64 - wi).abs() < 2e-4 + 1e-4 * wi.abs()
                 && (y.omega as f64 - ww).abs() < 2e-3 + 1e-4 * ww.abs();
@@ -320,44 +341,30 @@ mod tests {
 
     #[test]
     fn a_record_of_averaged_readings_starting_in_motion_starts_where_its_quiet_step_ended() {
-        use crate::model::record::Record;
         use crate::model::sim::{InitialState, Simulator, StepInput};
         // The drive brakes a turning shaft at 0 V for one record step (m of its own), the
         // mean of its readings the record's first sample; then 6 V.
         let p = ModelParams::PAPER_MOTOR.with(ParamId::Tc, 0.05);
         let (n, dt, m) = (60usize, 0.01f32, 20u32);
-        let mut drive = Simulator::new(&p, dt / m as f32, InitialState::REST).unwrap();
-        drive.reset(InitialState {
+        let turning = InitialState {
             current: 0.0,
             omega: 150.0,
-        });
+        };
+        let mut drive = Simulator::new(&p, dt / m as f32, turning).unwrap();
         let hold = |v: f32| StepInput {
             v,
             tl: 0.0,
             measured_omega: None,
             opens: false,
         };
-        let mut drive_mean = |v: f32| {
-            let (mut si, mut sw) = (0.0f64, 0.0f64);
-            for _ in 0..m {
-                drive.apply(&hold(v));
-                si += drive.reading().current as f64;
-                sw += drive.reading().omega as f64;
-            }
-            (si / m as f64, sw / m as f64)
-        };
-        let first = drive_mean(0.0);
+        let first = drive_mean(&mut drive, m, |_| hold(0.0));
+        // Taken for the state at the record's start, the mean lags it by far more than the
+        // tolerance below.
+        let lag = (first.0 - drive.reading().current as f64).abs();
+        assert!(lag > 50.0 * 1e-3, "{lag}");
         let v = std::vec![6.0f32; n];
         let zeros = std::vec![0.0f32; n];
-        let r = Record {
-            dt,
-            v: &v,
-            omega: &zeros,
-            current: Some(&zeros),
-            load: None,
-            coast_from: None,
-            averaged: m,
-        };
+        let r = averaged_inputs(dt, m, &v, &zeros, None);
         let init = InitialState {
             current: first.0 as f32,
             omega: first.1 as f32,
@@ -368,21 +375,10 @@ mod tests {
         let mut worst = 0.0f64;
         for k in 0..n - 1 {
             sim.apply_record::<true>(&hold(v[k]));
-            let (wi, _) = drive_mean(v[k]);
+            let (wi, _) = drive_mean(&mut drive, m, |_| hold(v[k]));
             worst = worst.max((sim.sample::<true>().current as f64 - wi).abs());
         }
         assert!(worst < 1e-3, "{worst}");
-        // Taken for the state at the record's start, the mean lags it by far more.
-        let mut lagging = Simulator::new(&p, dt, init).unwrap();
-        lagging.apply(&hold(v[0]));
-        let mut drive = Simulator::new(&p, dt / m as f32, InitialState::REST).unwrap();
-        drive.reset(InitialState {
-            current: 0.0,
-            omega: 150.0,
-        });
-        (0..2 * m).for_each(|j| drive.apply(&hold(if j < m { 0.0 } else { 6.0 })));
-        let lag = (lagging.reading().current - drive.reading().current).abs();
-        assert!(lag > 50.0 * 1e-3, "{lag}");
     }
 
     #[test]
