@@ -26,11 +26,14 @@
 //! in small steps). So the valley is also walked: from the optimum along each flat
 //! direction to half way to the box's edge, both ways, and least squares from there back
 //! down onto the valley (across it, where the fit is stiff, which it does well); where
-//! that lands on the valley, from all the way to the edge too (where the descent from half
-//! way already ends above the optimum's fit, the valley holds no equal fit that far out,
-//! and one from farther up ends higher: on the commissioning benchmark, stopping there
-//! changed no verdict of the 1,000 motors and spared 8 % of the 90th percentile's
-//! simulations). Each point it lands on that fits as well as the optimum (a rise of at most
+//! that lands on the valley away from the optimum, from all the way to the edge too (where
+//! the descent from half way already ends above the optimum's fit, the valley holds no
+//! equal fit that far out, and one from farther up ends higher: on the commissioning
+//! benchmark, stopping there changed no verdict of the 1,000 motors and spared 8 % of the
+//! 90th percentile's simulations; where it comes back to the optimum, [`CAME_BACK`], the
+//! valley is a bowl that does not reach half way, and one from the edge comes back too:
+//! stopping there changed no verdict of the benchmarks and spared another 17 % of the
+//! commissioning benchmark's 90th percentile). Each point it lands on that fits as well as the optimum (a rise of at most
 //! [`VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a parameter that
 //! differs there from the optimum by more than three local deviations is touched by the
 //! flat direction after all (the valley bends into it), and it is not pinned.
@@ -319,6 +322,28 @@ fn profile_start(
     Some((profile, start))
 }
 
+/// A descent of the walk that lands nearer the optimum than this share of its start's
+/// distance from it (in unit coordinates) came back: the valley holds no equal fit that
+/// far out that way, and a descent from farther out (the edge) comes back the same way.
+/// (A landing as far out in another direction, where the valley bends, has not come
+/// back: the walk goes on to the edge.) On the commissioning benchmark's motors whose
+/// viscous loss is a per cent of their Coulomb torque (B known to 11-15 %, not pinned),
+/// every descent came back to within 3 % of the way and every other parameter to within
+/// 0.1 of its local deviation; the descents from the edge had cost a third of the
+/// check's 310-400 simulations.
+const CAME_BACK: f32 = 0.25;
+
+/// Whether the descent from `start` that landed at `landed` came back to the optimum
+/// `u0` ([`CAME_BACK`]).
+fn came_back(u0: &[f32], start: &[f32], landed: &[f32]) -> bool {
+    let (mut landed_sq, mut start_sq) = (0.0f32, 0.0f32);
+    for ((o, s), l) in u0.iter().zip(start).zip(landed) {
+        landed_sq += (l - o) * (l - o);
+        start_sq += (s - o) * (s - o);
+    }
+    landed_sq < CAME_BACK * CAME_BACK * start_sq
+}
+
 /// The valley walk (module doc): for every free parameter, its largest distance from the
 /// optimum over the points of the flat directions' valley that fit as well (in its own
 /// unit; `sigma2` the residual variance).
@@ -376,6 +401,9 @@ fn walk_the_valley(
                 for (i, f) in free.iter().enumerate() {
                     let d = f64::from((f.value(r.u[i]) - at.get(f.id)).abs());
                     farthest[i] = farthest[i].max(d);
+                }
+                if came_back(&u0[..dim], &start[..dim], &r.u[..dim]) {
+                    break;
                 }
             }
         }

@@ -56,3 +56,14 @@ fn a_profile_starts_at_the_local_minimum_of_the_others() {
     let most = unmoved_gains.iter().copied().fold(0.0, f64::max);
     assert!(most > 10.0, "{unmoved_gains:?}");
 }
+
+#[test]
+fn a_descent_came_back_only_when_it_landed_near_the_optimum() {
+    let (u0, start) = ([0.5f32, 0.5], [0.9f32, 0.5]);
+    // Back home, or a fifth of the way out: came back.
+    assert!(came_back(&u0, &start, &[0.5, 0.5]));
+    assert!(came_back(&u0, &start, &[0.58, 0.5]));
+    // Stayed out, or as far out across (a valley that bends): not came back.
+    assert!(!came_back(&u0, &start, &[0.85, 0.5]));
+    assert!(!came_back(&u0, &start, &[0.5, 0.2]));
+}
