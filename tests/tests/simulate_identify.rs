@@ -126,7 +126,12 @@ fn speed_only_step_says_only_three_combinations_are_pinned() {
             "{c} vs {t}"
         );
     }
-    assert_eq!(id["unpinned_directions"].as_array().unwrap().len(), 2);
+    // Paper Eq. 6 leaves two directions with no information at all: flat, with no
+    // deviation (JSON null), said so in the text.
+    let directions = id["unpinned_directions"].as_array().unwrap();
+    assert_eq!(directions.len(), 2);
+    assert!(directions.iter().all(|d| d["std"].is_null()), "{id}");
+    assert_eq!(text.matches("flat along").count(), 2, "{text}");
 }
 
 #[test]

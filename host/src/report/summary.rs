@@ -113,7 +113,15 @@ pub fn summary(
             .filter(|(_, c)| c.abs() >= 0.05)
             .map(|(p, c)| format!("{c:+.2} {}", p.id.name()))
             .collect();
-        s += &format!("  flat along {} (log scale)\n", terms.join(" "));
+        // Flat: the data says nothing along it. Loose: it does, more loosely than pinned.
+        s += &match d.std.is_finite() {
+            true => format!(
+                "  loose along {} (log scale): one deviation {:.3} along it\n",
+                terms.join(" "),
+                d.std
+            ),
+            false => format!("  flat along {} (log scale)\n", terms.join(" ")),
+        };
     }
     if !ident.all_pinned() {
         s += &unpinned_advice(id.cost.rmse_current.is_some());

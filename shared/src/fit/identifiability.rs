@@ -145,7 +145,10 @@ pub struct CombinationCertainty {
 pub struct Direction {
     /// Unit vector over the free parameters (same order as [`Identifiability::params`]).
     pub components: [f32; MAX_FREE],
-    /// Standard deviation along it (natural coordinates), `INFINITY` when flat.
+    /// Standard deviation along it (natural coordinates), `INFINITY` when numerically flat
+    /// (its eigenvalue at the finite-difference Jacobian's floor: a speed-only record's
+    /// paper Eq. 6 directions); finite for a direction the data informs more loosely than
+    /// [`PINNED_STD`] (B beside a Coulomb torque a hundred times its viscous one).
     pub std: f32,
 }
 
@@ -380,7 +383,12 @@ fn interpret(
             }
             let _ = unpinned.push(Direction {
                 components,
-                std: std_of(k) as f32,
+                // Numerically flat (its eigenvalue at the floor): the data says nothing
+                // along it. Otherwise informed, only more loosely than PINNED_STD.
+                std: match vals[k] > floor {
+                    true => std_of(k) as f32,
+                    false => f32::INFINITY,
+                },
             });
         }
     }

@@ -1,6 +1,7 @@
 //! Tests of the pipelines (`fit::identify`): recovery, identifiability, refusals.
 
 use super::*;
+use crate::fit::identifiability::PINNED_STD;
 use crate::model::profile::Profile;
 use crate::model::synth::Noise;
 use crate::param_id::ParamId;
@@ -75,6 +76,12 @@ fn speed_only_step_pins_three_combinations() {
     assert!(ident.params.iter().all(|p| !p.pinned));
     assert!(ident.combinations.iter().all(|c| c.pinned));
     assert_eq!(ident.unpinned.len(), 2);
+    // Paper Eq. 6 leaves them no information at all: numerically flat.
+    assert!(
+        ident.unpinned.iter().all(|d| d.std.is_infinite()),
+        "{:?}",
+        ident.unpinned
+    );
     let floor = Objective::new(&rec)
         .unwrap()
         .cost(&truth)
@@ -374,4 +381,24 @@ fn averaged_readings_with_an_effect_they_do_not_model_are_refused_before_the_fit
     let mut spec = ProblemSpec::default();
     spec.fix(ParamId::Tc, 0.01).unwrap();
     assert!(identify(&[r], &spec, &cfg, |_| ControlFlow::Continue(())).is_ok());
+}
+
+#[test]
+fn a_direction_the_data_informs_loosely_has_its_deviation() {
+    // One start-up step of the paper motor with current under heavy noise: La, known
+    // from the current's rise alone, is informed, but more loosely than pinned allows; its
+    // direction is not flat (a finite deviation, wider than PINNED_STD), unlike the
+    // speed-only record's paper Eq. 6 directions above.
+    let noise = Noise {
+        omega: 20.0,
+        current: 2.0,
+    };
+    let data = Owned::paper_motor(Profile::Start, 0.01, 2000, noise, 3);
+    let rec = [data.record(true, false)];
+    let ident = default_fit(&rec, 2).identifiability;
+    std::println!("{:?}", ident);
+    assert!(!ident.unpinned.is_empty(), "{ident:?}");
+    for d in &ident.unpinned {
+        assert!(d.std.is_finite() && f64::from(d.std) > PINNED_STD, "{d:?}");
+    }
 }
