@@ -269,13 +269,22 @@ pub(crate) fn exp_minus_identity_and_integral(a: &M2, t: f64) -> (M2, M2) {
 }
 
 /// Taylor series of `e^{At} - I` and its integral, for `|lambda| t < 0.5`.
+///
+/// The sums stop once two terms in a row are under [`NEGLIGIBLE`] of every entry they add
+/// to: from there on each term is below half an f64 unit in the last place of its sum,
+/// which adding it leaves unchanged, bit for bit, so the result is the full series' (at
+/// most [`TAYLOR_TERMS`], what every case took before). In soft-float f64 on the M4F the
+/// discretisations were half of a commissioning fit's instructions, most of them a
+/// simulation's drive step over a share of its record's step (`|lambda| t` of 0.01-0.1,
+/// 6-9 terms instead of 24; docs/measurements/commissioning.md).
 fn taylor(a: &M2, t: f64) -> (M2, M2) {
     let at = [[a[0][0] * t, a[0][1] * t], [a[1][0] * t, a[1][1] * t]];
     // term_k = (At)^k / k!; g = sum_{k>=1} term_k; f = t * sum_{k>=0} term_k / (k+1).
     let mut term: M2 = [[1.0, 0.0], [0.0, 1.0]];
     let mut g: M2 = [[0.0; 2]; 2];
     let mut f: M2 = [[t, 0.0], [0.0, t]];
-    for k in 1..=24 {
+    let mut negligible_before = false;
+    for k in 1..=TAYLOR_TERMS {
         let next = mat_mul(&term, &at);
         let kf = k as f64;
         term = [
@@ -283,15 +292,29 @@ fn taylor(a: &M2, t: f64) -> (M2, M2) {
             [next[1][0] / kf, next[1][1] / kf],
         ];
         let scale = t / (kf + 1.0);
+        let mut negligible = true;
         for r in 0..2 {
             for c in 0..2 {
                 g[r][c] += term[r][c];
                 f[r][c] += term[r][c] * scale;
+                negligible &= term[r][c].abs() <= NEGLIGIBLE * g[r][c].abs()
+                    && (term[r][c] * scale).abs() <= NEGLIGIBLE * f[r][c].abs();
             }
         }
+        if negligible && negligible_before {
+            break;
+        }
+        negligible_before = negligible;
     }
     (g, f)
 }
+
+/// Most terms of [`taylor`]'s series.
+const TAYLOR_TERMS: u32 = 24;
+/// A term of [`taylor`]'s series this small against its sum (2^-64, 2^11 under half an
+/// f64 unit in the last place) leaves the sum unchanged, and so does every later one, each
+/// smaller still (`|lambda| t < 0.5`; the test holds the sums to the full series' bits).
+const NEGLIGIBLE: f64 = 5.421010862427522e-20;
 
 /// `sin x / x` for `x >= 0`, given `sin x`.
 fn sinc(x: f64, sin_x: f64) -> f64 {
@@ -313,6 +336,57 @@ fn sinhc(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The series summed to its last term, [`TAYLOR_TERMS`] of them (the sum before it
+    /// stopped early).
+    fn taylor_in_full(a: &M2, t: f64) -> (M2, M2) {
+        let at = [[a[0][0] * t, a[0][1] * t], [a[1][0] * t, a[1][1] * t]];
+        let mut term: M2 = [[1.0, 0.0], [0.0, 1.0]];
+        let (mut g, mut f): (M2, M2) = ([[0.0; 2]; 2], [[t, 0.0], [0.0, t]]);
+        for k in 1..=TAYLOR_TERMS {
+            let next = mat_mul(&term, &at);
+            let kf = k as f64;
+            term = [
+                [next[0][0] / kf, next[0][1] / kf],
+                [next[1][0] / kf, next[1][1] / kf],
+            ];
+            for r in 0..2 {
+                for c in 0..2 {
+                    g[r][c] += term[r][c];
+                    f[r][c] += term[r][c] * (t / (kf + 1.0));
+                }
+            }
+        }
+        (g, f)
+    }
+
+    #[test]
+    fn the_taylor_series_stopped_early_is_the_full_series_bit_for_bit() {
+        // Motors of the Table 1 box at steps from a drive's share of a record step to
+        // where the series hands over (|lambda| t up to 0.5): the sums stopped early are
+        // the full series' to the last bit, so no coefficient moves.
+        let mut cases = 0;
+        for seed in 1..=400u64 {
+            let a = Motor::of(&crate::model::synth::table_one_motor(seed)).a;
+            let mu = 0.5 * (a[0][0] + a[1][1]);
+            let half_diff = 0.5 * (a[0][0] - a[1][1]);
+            let disc = half_diff * half_diff + a[0][1] * a[1][0];
+            let radius = mu.abs() + libm::sqrt(disc.abs());
+            for reach in [1e-4, 1e-3, 0.01, 0.05, 0.1, 0.2, 0.3, 0.45, 0.499] {
+                let t = reach / radius;
+                let (g, f) = taylor(&a, t);
+                let (g_full, f_full) = taylor_in_full(&a, t);
+                for r in 0..2 {
+                    for c in 0..2 {
+                        assert_eq!(g[r][c].to_bits(), g_full[r][c].to_bits(), "{seed} {t}");
+                        assert_eq!(f[r][c].to_bits(), f_full[r][c].to_bits(), "{seed} {t}");
+                    }
+                }
+                cases += 1;
+            }
+        }
+        assert_eq!(cases, 3600);
+    }
 
     /// Reference: classical RK4 in f64 with many substeps, from x0 under inputs (v, tl).
     fn reference_step(p: &ModelParams, dt: f64, x0: [f64; 2], v: f64, tl: f64) -> [f64; 2] {
