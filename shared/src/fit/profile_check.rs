@@ -32,8 +32,9 @@
 //! benchmark, stopping there changed no verdict of the 1,000 motors and spared 8 % of the
 //! 90th percentile's simulations; where it comes back to the optimum, [`CAME_BACK`], the
 //! valley is a bowl that does not reach half way, and one from the edge comes back too:
-//! stopping there changed no verdict of the benchmarks and spared another 17 % of the
-//! commissioning benchmark's 90th percentile). Each point it lands on that fits as well as the optimum (a rise of at most
+//! stopping there changed no verdict of the benchmarks and spared 18-23 % of the
+//! commissioning benchmark's 90th percentile at the QEMU plant's settings and on instant
+//! readings). Each point it lands on that fits as well as the optimum (a rise of at most
 //! [`VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a parameter that
 //! differs there from the optimum by more than three local deviations is touched by the
 //! flat direction after all (the valley bends into it), and it is not pinned.
@@ -326,11 +327,11 @@ fn profile_start(
 /// distance from it (in unit coordinates) came back: the valley holds no equal fit that
 /// far out that way, and a descent from farther out (the edge) comes back the same way.
 /// (A landing as far out in another direction, where the valley bends, has not come
-/// back: the walk goes on to the edge.) On the commissioning benchmark's motors whose
-/// viscous loss is a per cent of their Coulomb torque (B known to 11-15 %, not pinned),
-/// every descent came back to within 3 % of the way and every other parameter to within
-/// 0.1 of its local deviation; the descents from the edge had cost a third of the
-/// check's 310-400 simulations.
+/// back: the walk goes on to the edge.) On the four MCU benchmark motors whose viscous
+/// loss is a per cent of their Coulomb torque (B known to 11-15 %, not pinned), every
+/// descent came back to within 3 % of the way and every other parameter to within 0.1 of
+/// its local deviation; the descents from the edge had cost a third of the check's
+/// 310-400 simulations (docs/measurements/commissioning.md).
 const CAME_BACK: f32 = 0.25;
 
 /// Whether the descent from `start` that landed at `landed` came back to the optimum
