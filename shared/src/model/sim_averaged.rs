@@ -8,6 +8,7 @@ use super::{sign, InitialState, Reading, Simulator, StepInput};
 use crate::capacity::FULL;
 use crate::error::Error;
 use crate::model::compensated::Compensated;
+use crate::model::discretise::Discrete;
 use crate::model::effects::current_offset;
 use crate::model::params::ModelParams;
 use crate::model::record::Record;
@@ -22,6 +23,11 @@ pub(super) struct Averaged {
     /// Drive samples per step.
     pub(super) m: u32,
     pub(super) last: Reading,
+    /// The motor's coefficients over one drive sample (a share `1 / m` of the record's
+    /// step) for the steps a stop or a break-away is simulated in
+    /// ([`Simulator::average_over_step`]): made at the first such step, then kept (a
+    /// discretisation in soft-float f64 on a board, once instead of at every event).
+    pub(super) drive: Option<Discrete>,
 }
 
 impl Simulator {
@@ -31,27 +37,37 @@ impl Simulator {
     #[inline(always)]
     pub fn for_record(p: &ModelParams, r: &Record, init: InitialState) -> Result<Self, Error> {
         match r.averaged > 1 {
-            true => Simulator::averaged(p, r, init),
+            // The mean's coefficients made here, on the caller's frame, not beneath the
+            // simulator's own (their f64 matrix functions are the deepest of a board's
+            // calls: docs/measurements/footprint.md).
+            true => Simulator::averaged(p, r, init, StepMean::new(p, r.dt, r.averaged)),
             false => Simulator::new(p, r.dt, init),
         }
     }
 
     /// [`Simulator::for_record`] of averaged readings. Exact for the linear motor and
     /// Coulomb friction (see [`Simulator::average_over_step`]): any other effect would be
-    /// held at an instant. (Out of line: the fit's frames stay small.)
+    /// held at an instant. `coeffs` are the mean's ([`StepMean::new`] of `p`, `r.dt` and
+    /// `r.averaged`). (Out of line: the fit's frames stay small.)
     #[inline(never)]
-    fn averaged(p: &ModelParams, r: &Record, init: InitialState) -> Result<Self, Error> {
+    fn averaged(
+        p: &ModelParams,
+        r: &Record,
+        init: InitialState,
+        coeffs: StepMean,
+    ) -> Result<Self, Error> {
         let mut s = Simulator::new(p, r.dt, init)?;
         if !s.friction_only || s.delayed {
             return Err(Error::AveragedReadingsNotModelled);
         }
         s.averaged = Some(Averaged {
-            coeffs: StepMean::new(p, r.dt, r.averaged),
+            coeffs,
             m: r.averaged,
             last: Reading {
                 omega: 0.0,
                 current: 0.0,
             },
+            drive: None,
         });
         s.reset(init);
         if init.omega != 0.0 {
@@ -93,10 +109,10 @@ impl Simulator {
 
     /// The mean `[i, w]` of `m` drive steps over the step just taken, from its start
     /// `(i0, w0, stuck)` (see [`Simulator::average_over_step`]).
-    fn substepped_mean(&self, m: u32, start: (f32, f32, bool), v: f32, tl: f32) -> (f32, f32) {
+    fn substepped_mean(&mut self, m: u32, start: (f32, f32, bool), v: f32, tl: f32) -> (f32, f32) {
         let (i0, w0, stuck) = start;
         let share = 1.0 / m as f32;
-        let Ok(disc) = self.disc.over_share(self.dt, self.kv, share) else {
+        let Some(disc) = self.drive_step(share) else {
             return (0.5 * (i0 + self.current.hi), 0.5 * (w0 + self.omega.hi));
         };
         let mut drive = self.clone();
@@ -111,6 +127,19 @@ impl Simulator {
             (si, sw) = (si + drive.current.hi, sw + drive.omega.hi);
         }
         (si / m as f32, sw / m as f32)
+    }
+
+    /// The coefficients over one drive sample, a `share` of the record's step
+    /// ([`Averaged::drive`], [`Discrete::over_share`]); None where they cannot be made.
+    fn drive_step(&mut self, share: f32) -> Option<Discrete> {
+        if let Some(drive) = self.averaged.as_ref().and_then(|a| a.drive) {
+            return Some(drive);
+        }
+        let drive = self.disc.over_share(self.dt, self.kv, share).ok()?;
+        if let Some(a) = &mut self.averaged {
+            a.drive = Some(drive);
+        }
+        Some(drive)
     }
 
     /// What a record's sample reads after the steps so far: the reading now, or with
@@ -199,5 +228,49 @@ impl Simulator {
         if let Some(a) = &mut self.averaged {
             a.last = Reading { omega: w, current };
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::record::Record;
+
+    #[test]
+    fn the_drive_step_is_made_at_the_first_stop_and_kept() {
+        // The paper motor with Coulomb friction braking at 0 V from a slow turn, in
+        // record steps of ten drive samples: it stops within a few steps. Before the stop
+        // no drive step is made; at it, the one over a tenth of the record's step, and the
+        // same one is what every later event uses.
+        let p = ModelParams::PAPER_MOTOR.with(ParamId::Tc, 0.5);
+        let (m, n) = (10u32, 40usize);
+        let zeros = [0.0f32; 40];
+        let r = Record {
+            dt: 0.01,
+            v: &zeros,
+            omega: &zeros,
+            current: Some(&zeros),
+            load: None,
+            coast_from: None,
+            averaged: m,
+        };
+        let init = InitialState {
+            current: 0.0,
+            omega: 1.0,
+        };
+        let mut s = Simulator::for_record(&p, &r, init).unwrap();
+        let drive = |s: &Simulator| s.averaged.as_ref().and_then(|a| a.drive);
+        assert_eq!(drive(&s), None);
+        let expected = s.disc.over_share(s.dt, s.kv, 1.0 / m as f32).unwrap();
+        let mut stopped_at = None;
+        for k in 0..n {
+            s.apply_record::<true>(&r.step_input(k, false));
+            if s.shaft_stuck && stopped_at.is_none() {
+                stopped_at = Some(k);
+            }
+            assert_eq!(drive(&s).is_some(), stopped_at.is_some(), "step {k}");
+        }
+        assert!(stopped_at.is_some_and(|k| k > 0), "{stopped_at:?}");
+        assert_eq!(drive(&s), Some(expected));
     }
 }
