@@ -278,6 +278,11 @@ pub(crate) fn exp_minus_identity_and_integral(a: &M2, t: f64) -> (M2, M2) {
 /// simulation's drive step over a share of its record's step (`|lambda| t` of 0.01-0.1,
 /// 6-9 terms instead of 24; docs/measurements/commissioning.md).
 fn taylor(a: &M2, t: f64) -> (M2, M2) {
+    taylor_sums(a, t, true)
+}
+
+/// [`taylor`]'s sums, stopped early with `early`, else over all [`TAYLOR_TERMS`].
+fn taylor_sums(a: &M2, t: f64, early: bool) -> (M2, M2) {
     let at = [[a[0][0] * t, a[0][1] * t], [a[1][0] * t, a[1][1] * t]];
     // term_k = (At)^k / k!; g = sum_{k>=1} term_k; f = t * sum_{k>=0} term_k / (k+1).
     let mut term: M2 = [[1.0, 0.0], [0.0, 1.0]];
@@ -301,7 +306,7 @@ fn taylor(a: &M2, t: f64) -> (M2, M2) {
                     && (term[r][c] * scale).abs() <= NEGLIGIBLE * f[r][c].abs();
             }
         }
-        if negligible && negligible_before {
+        if early && negligible && negligible_before {
             break;
         }
         negligible_before = negligible;
@@ -334,180 +339,5 @@ fn sinhc(x: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The series summed to its last term, [`TAYLOR_TERMS`] of them (the sum before it
-    /// stopped early).
-    fn taylor_in_full(a: &M2, t: f64) -> (M2, M2) {
-        let at = [[a[0][0] * t, a[0][1] * t], [a[1][0] * t, a[1][1] * t]];
-        let mut term: M2 = [[1.0, 0.0], [0.0, 1.0]];
-        let (mut g, mut f): (M2, M2) = ([[0.0; 2]; 2], [[t, 0.0], [0.0, t]]);
-        for k in 1..=TAYLOR_TERMS {
-            let next = mat_mul(&term, &at);
-            let kf = k as f64;
-            term = [
-                [next[0][0] / kf, next[0][1] / kf],
-                [next[1][0] / kf, next[1][1] / kf],
-            ];
-            for r in 0..2 {
-                for c in 0..2 {
-                    g[r][c] += term[r][c];
-                    f[r][c] += term[r][c] * (t / (kf + 1.0));
-                }
-            }
-        }
-        (g, f)
-    }
-
-    #[test]
-    fn the_taylor_series_stopped_early_is_the_full_series_bit_for_bit() {
-        // Motors of the Table 1 box at steps from a drive's share of a record step to
-        // where the series hands over (|lambda| t up to 0.5): the sums stopped early are
-        // the full series' to the last bit, so no coefficient moves.
-        let mut cases = 0;
-        for seed in 1..=400u64 {
-            let a = Motor::of(&crate::model::synth::table_one_motor(seed)).a;
-            let mu = 0.5 * (a[0][0] + a[1][1]);
-            let half_diff = 0.5 * (a[0][0] - a[1][1]);
-            let disc = half_diff * half_diff + a[0][1] * a[1][0];
-            let radius = mu.abs() + libm::sqrt(disc.abs());
-            for reach in [1e-4, 1e-3, 0.01, 0.05, 0.1, 0.2, 0.3, 0.45, 0.499] {
-                let t = reach / radius;
-                let (g, f) = taylor(&a, t);
-                let (g_full, f_full) = taylor_in_full(&a, t);
-                for r in 0..2 {
-                    for c in 0..2 {
-                        assert_eq!(g[r][c].to_bits(), g_full[r][c].to_bits(), "{seed} {t}");
-                        assert_eq!(f[r][c].to_bits(), f_full[r][c].to_bits(), "{seed} {t}");
-                    }
-                }
-                cases += 1;
-            }
-        }
-        assert_eq!(cases, 3600);
-    }
-
-    /// Reference: classical RK4 in f64 with many substeps, from x0 under inputs (v, tl).
-    fn reference_step(p: &ModelParams, dt: f64, x0: [f64; 2], v: f64, tl: f64) -> [f64; 2] {
-        let ra = p.get(ParamId::Ra) as f64;
-        let la = p.get(ParamId::La) as f64;
-        let j = p.get(ParamId::J) as f64;
-        let b = p.get(ParamId::B) as f64;
-        let kv = p.get(ParamId::Kv) as f64;
-        let deriv = |x: [f64; 2]| {
-            [
-                (v - ra * x[0] - kv * x[1]) / la,
-                (kv * x[0] - b * x[1] - tl) / j,
-            ]
-        };
-        let fastest = ra / la + b / j + kv / (la * j).sqrt();
-        let n = ((dt * fastest * 50.0).ceil() as usize).clamp(200, 2_000_000);
-        let h = dt / n as f64;
-        let mut x = x0;
-        for _ in 0..n {
-            let k1 = deriv(x);
-            let k2 = deriv([x[0] + 0.5 * h * k1[0], x[1] + 0.5 * h * k1[1]]);
-            let k3 = deriv([x[0] + 0.5 * h * k2[0], x[1] + 0.5 * h * k2[1]]);
-            let k4 = deriv([x[0] + h * k3[0], x[1] + h * k3[1]]);
-            for s in 0..2 {
-                x[s] += h / 6.0 * (k1[s] + 2.0 * k2[s] + 2.0 * k3[s] + k4[s]);
-            }
-        }
-        x
-    }
-
-    fn check(p: ModelParams, dt: f32) {
-        check_step(&p, &Discrete::new(&p, dt).unwrap(), dt, 2e-5);
-    }
-
-    /// `d`, coefficients of `p` over `t` seconds, takes a state to where the fine RK4 does,
-    /// within `tolerance` of its scale.
-    fn check_step(p: &ModelParams, d: &Discrete, t: f32, tolerance: f64) {
-        let x0 = [1.5f64, 40.0];
-        let (v, tl) = (24.0, 0.3);
-        let r = reference_step(p, t as f64, x0, v, tl);
-        for s in 0..2 {
-            let got = x0[s]
-                + d.d[s][0] as f64 * x0[0]
-                + d.d[s][1] as f64 * x0[1]
-                + d.gv[s] as f64 * v
-                + d.gt[s] as f64 * tl;
-            let scale = r[s].abs().max(x0[s].abs()).max(1e-3);
-            assert!(
-                (got - r[s]).abs() <= tolerance * scale,
-                "state {s}: zoh {got} vs reference {} over {t} s for {p:?}",
-                r[s]
-            );
-        }
-    }
-
-    #[test]
-    fn matches_fine_rk4_in_every_branch() {
-        // Paper's motor (complex poles at 1 kHz): trigonometric branch.
-        check(ModelParams::PAPER_MOTOR, 1e-3);
-        // The corner of the Table 1 box where Euler/RK4 diverge (`docs/ARCHITECTURE.md`): complex poles near -25 +- 632j.
-        check(ModelParams::motor(0.5, 0.01, 0.001, 0.0005, 2.0), 1e-3);
-        // Small step: Taylor branch.
-        check(ModelParams::PAPER_MOTOR, 2e-5);
-        // Stiff, well separated real poles at 100 Hz: divided differences.
-        check(ModelParams::motor(10.0, 0.01, 1.0, 0.0005, 0.01), 1e-2);
-        // Fast small motor (La/Ra = 0.5 ms) at 10 kHz.
-        check(ModelParams::motor(2.0, 0.001, 2e-5, 1e-5, 0.02), 1e-4);
-    }
-
-    #[test]
-    fn a_share_of_a_step_matches_the_fine_reference() {
-        // The motor recovered from a step's own coefficients, over part of that step: the
-        // paper's motor at 1 kHz, a slow shaft at 50 kHz (am about -1e-6), a shaft without
-        // viscous friction (am = 0), and a step as long as La/Ra.
-        let cases = [
-            (ModelParams::PAPER_MOTOR, 1e-3),
-            (ModelParams::PAPER_MOTOR, 2e-5),
-            (ModelParams::motor(1.0, 0.02, 0.5, 0.0, 0.08), 1e-3),
-            (
-                ModelParams::motor(8.45, 0.0247, 0.0831, 0.00607, 1.83),
-                2.55e-3,
-            ),
-        ];
-        for (p, dt) in cases {
-            let kv = p.get(ParamId::Kv);
-            let whole = Discrete::new(&p, dt).unwrap();
-            for share in [0.01f32, 0.37, 0.9] {
-                let part = whole.over_share(dt, kv, share).unwrap();
-                check_step(&p, &part, share * dt, 1e-4);
-            }
-        }
-    }
-
-    #[test]
-    fn slow_mode_kept_exact_at_high_rate() {
-        // Mechanical pole around -0.24 /s at 50 kHz: D[1][1] is about -5e-6.
-        let d = Discrete::new(&ModelParams::PAPER_MOTOR, 2e-5).unwrap();
-        // Steady-state speed from the discrete map must equal the analytic Kv V / (Ra B + Kv^2).
-        let p = ModelParams::PAPER_MOTOR;
-        let (ra, b, kv) = (p.get(ParamId::Ra), p.get(ParamId::B), p.get(ParamId::Kv));
-        let expected = kv as f64 * 100.0 / (ra as f64 * b as f64 + kv as f64 * kv as f64);
-        // Solve D x + gv v = 0 in f64 from the f32 coefficients.
-        let m = [
-            [d.d[0][0] as f64, d.d[0][1] as f64],
-            [d.d[1][0] as f64, d.d[1][1] as f64],
-        ];
-        let rhs = [-(d.gv[0] as f64) * 100.0, -(d.gv[1] as f64) * 100.0];
-        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-        let w = (m[0][0] * rhs[1] - m[1][0] * rhs[0]) / det;
-        assert!((w - expected).abs() < 1e-4 * expected, "{w} vs {expected}");
-    }
-
-    #[test]
-    fn refuses_bad_parameters() {
-        assert_eq!(
-            Discrete::new(&ModelParams::PAPER_MOTOR.with(ParamId::La, 0.0), 1e-3),
-            Err(Error::NonPositiveParameter(ParamId::La))
-        );
-        assert_eq!(
-            Discrete::new(&ModelParams::PAPER_MOTOR, f32::NAN),
-            Err(Error::InvalidStep)
-        );
-    }
-}
+#[path = "discretise_tests.rs"]
+mod tests;
