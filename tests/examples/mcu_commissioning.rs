@@ -7,7 +7,7 @@
 //! its fit metered by the board (`fit_ticks`, docs/measurements/footprint.md).
 //!
 //! `cargo run --release -p motor-id-tests --example mcu_commissioning -- [MOTORS (12)]
-//! [--only M (motor M alone, with MOTORS 1; its report on stderr)] [--records DIR (the
+//! [--only M (motor M alone; its report on stderr)] [--records DIR (the
 //! board's records of each motor commissioned, downloaded into DIR/M/ as `board record`
 //! writes them: for `identify --pipeline board`, `validate`)]` (some 15 s a motor on 2
 //! cores).
@@ -37,6 +37,10 @@ fn main() {
     let (mut seed, mut tried) = (0u64, 0usize);
     while tried < wanted {
         seed += 1;
+        if only.is_some_and(|o| seed > o) {
+            // Past the motor asked for, whatever MOTORS says.
+            break;
+        }
         let m = table_one_motor(seed);
         let [ra, la, j, b, kv] = ParamId::MOTOR.map(|p| m.get(p));
         let tau_m = j * ra / (kv * kv + ra * b);

@@ -175,7 +175,10 @@ impl Objective<'_, '_> {
                 // The nominal set first, its shifted initial speed's last.
                 None => (*nominal, if j == 0 { init } else { shifted? }),
             };
-            sims.push(Simulator::for_record(&p, r, start).ok()?).ok()?;
+            // The nominal set's coefficients serve every set with its motor.
+            let like = sims.first().map(|s| (nominal, s));
+            let sim = Simulator::for_record_like(&p, r, start, like).ok()?;
+            sims.push(sim).ok()?;
         }
         Some(shifted.map(|_| count - 1))
     }

@@ -296,7 +296,7 @@ impl<'r, 'a> Objective<'r, 'a> {
                 }
             }
             Some(s) => {
-                let Ok(mut sim_s) = Simulator::for_record(p, r, s) else {
+                let Ok(mut sim_s) = Simulator::for_record_like(p, r, s, Some((p, &sim))) else {
                     return Ok(None);
                 };
                 for k in 0..r.len() {

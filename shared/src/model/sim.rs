@@ -23,8 +23,7 @@ use crate::model::compensated::Compensated;
 use crate::model::discretise::Discrete;
 use crate::model::effects::friction::FrictionLaw;
 use crate::model::effects::{
-    current_offset, sensor_delay, tacho_ripple, winding_heating, Held, BEYOND_COULOMB,
-    SHAFT_DEAD_ZONE, SHAFT_FRICTION, SWITCHES,
+    sensor_delay, winding_heating, Held, BEYOND_COULOMB, SHAFT_DEAD_ZONE, SHAFT_FRICTION, SWITCHES,
 };
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
@@ -152,8 +151,22 @@ pub struct Simulator {
 impl Simulator {
     /// A simulator for `p` at step `dt`, starting from `init`.
     pub fn new(p: &ModelParams, dt: f32, init: InitialState) -> Result<Simulator, Error> {
+        Simulator::with_motor(p, dt, init, None)
+    }
+
+    /// [`Simulator::new`], given the motor's coefficients when they are known (`disc`, the
+    /// [`Discrete::new`] of a set with `p`'s motor at `dt`: [`Simulator::for_record_like`]).
+    pub(super) fn with_motor(
+        p: &ModelParams,
+        dt: f32,
+        init: InitialState,
+        disc: Option<Discrete>,
+    ) -> Result<Simulator, Error> {
         p.validate()?;
-        let disc = Discrete::new(p, dt)?;
+        let disc = match disc {
+            Some(d) => d,
+            None => Discrete::new(p, dt)?,
+        };
         let (delay_whole, delay_frac) =
             sensor_delay::in_samples(p.get(ParamId::Td), dt).ok_or(Error::DelayTooLong)?;
         // An effect this build's simulator does not hold must be off.
@@ -251,57 +264,6 @@ impl Simulator {
             ts: self.effect(ParamId::Ts),
             ws: self.effect(ParamId::Ws),
             ka: self.effect(ParamId::Ka),
-        }
-    }
-
-    #[inline(always)]
-    fn tacho_now(&self) -> f32 {
-        let (amp, phase) = (
-            self.effect(ParamId::RippleAmp),
-            self.effect(ParamId::RipplePhase),
-        );
-        let psi = match FULL && self.psi_from_reading && amp != 0.0 {
-            true => tacho_ripple::rotor_angle(amp, phase, self.psi),
-            false => self.psi,
-        };
-        tacho_ripple::reading(amp, phase, self.omega.hi, psi)
-    }
-
-    #[inline(always)]
-    fn push_reading(&mut self) {
-        self.push_tacho(self.tacho_now());
-    }
-
-    #[inline(always)]
-    fn push_tacho(&mut self, tacho: f32) {
-        self.tacho = tacho;
-        if self.delayed {
-            let head = (usize::from(self.head) + 1) % RING;
-            self.ring[head] = self.tacho;
-            self.head = head as u8;
-            self.filled = (usize::from(self.filled) + 1).min(RING) as u8;
-        }
-    }
-
-    fn ring_back(&self, n: usize) -> f32 {
-        let n = n.min(usize::from(self.filled) - 1);
-        self.ring[(usize::from(self.head) + RING - n) % RING]
-    }
-
-    /// What the sensors read now.
-    #[inline(always)]
-    pub fn reading(&self) -> Reading {
-        let omega = if !self.delayed {
-            self.tacho
-        } else {
-            let whole = usize::from(self.delay_whole);
-            let a = self.ring_back(whole);
-            let b = self.ring_back(whole + 1);
-            sensor_delay::interpolate(a, b, self.delay_frac)
-        };
-        Reading {
-            omega,
-            current: current_offset::reading(self.effect(ParamId::Io), self.current.hi),
         }
     }
 
@@ -441,6 +403,8 @@ mod brush_events;
 mod effect_step;
 #[path = "sim_friction_events.rs"]
 mod friction_events;
+#[path = "sim_readings.rs"]
+mod readings;
 
 #[cfg(test)]
 #[path = "sim_tests.rs"]

@@ -15,6 +15,14 @@ use crate::model::record::Record;
 use crate::model::step_mean::StepMean;
 use crate::param_id::ParamId;
 
+/// Whether `p` and `q` hold the same motor (Ra, La, J, B, Kv, to the bit): the same
+/// coefficients ([`Discrete::new`], [`StepMean::new`]).
+fn same_motor(p: &ModelParams, q: &ModelParams) -> bool {
+    ParamId::MOTOR
+        .iter()
+        .all(|&id| p.get(id).to_bits() == q.get(id).to_bits())
+}
+
 /// Readings averaged over each step ([`crate::model::step_mean`]): the mean's coefficients
 /// and the mean over the last step (the reading at the start before the first).
 #[derive(Clone, Copy, Debug)]
@@ -36,27 +44,56 @@ impl Simulator {
     /// their means ([`Simulator::sample`]).
     #[inline(always)]
     pub fn for_record(p: &ModelParams, r: &Record, init: InitialState) -> Result<Self, Error> {
+        Simulator::for_record_like(p, r, init, None)
+    }
+
+    /// [`Simulator::for_record`], bit for bit, with the motor's coefficients taken from
+    /// `like` (a simulator of the same record for the set `like.0`) when `p`'s motor (Ra,
+    /// La, J, B, Kv) is that set's: a Jacobian's column of an effect's parameter, or a
+    /// record's initial speed shifted, needs no discretisation of its own (in soft-float
+    /// f64 on a board, where they were most of a fit's instructions:
+    /// docs/measurements/commissioning.md).
+    #[inline(always)]
+    pub fn for_record_like(
+        p: &ModelParams,
+        r: &Record,
+        init: InitialState,
+        like: Option<(&ModelParams, &Simulator)>,
+    ) -> Result<Self, Error> {
+        let like = like
+            .filter(|(q, s)| s.dt == r.dt && same_motor(p, q))
+            .map(|(_, s)| s);
+        let disc = like.map(|s| s.disc);
         match r.averaged > 1 {
             // The mean's coefficients made here, on the caller's frame, not beneath the
             // simulator's own (their f64 matrix functions are the deepest of a board's
             // calls: docs/measurements/footprint.md).
-            true => Simulator::averaged(p, r, init, StepMean::new(p, r.dt, r.averaged)),
-            false => Simulator::new(p, r.dt, init),
+            true => {
+                let kept = like.and_then(|s| s.averaged).filter(|a| a.m == r.averaged);
+                let coeffs = match kept {
+                    Some(a) => a.coeffs,
+                    None => StepMean::new(p, r.dt, r.averaged),
+                };
+                Simulator::averaged(p, r, init, coeffs, disc)
+            }
+            false => Simulator::with_motor(p, r.dt, init, disc),
         }
     }
 
     /// [`Simulator::for_record`] of averaged readings. Exact for the linear motor and
     /// Coulomb friction (see [`Simulator::average_over_step`]): any other effect would be
     /// held at an instant. `coeffs` are the mean's ([`StepMean::new`] of `p`, `r.dt` and
-    /// `r.averaged`). (Out of line: the fit's frames stay small.)
+    /// `r.averaged`), `disc` the motor's when known. (Out of line: the fit's frames stay
+    /// small.)
     #[inline(never)]
     fn averaged(
         p: &ModelParams,
         r: &Record,
         init: InitialState,
         coeffs: StepMean,
+        disc: Option<Discrete>,
     ) -> Result<Self, Error> {
-        let mut s = Simulator::new(p, r.dt, init)?;
+        let mut s = Simulator::with_motor(p, r.dt, init, disc)?;
         if !s.friction_only || s.delayed {
             return Err(Error::AveragedReadingsNotModelled);
         }
@@ -272,5 +309,71 @@ mod tests {
         }
         assert!(stopped_at.is_some_and(|k| k > 0), "{stopped_at:?}");
         assert_eq!(drive(&s), Some(expected));
+    }
+
+    /// The readings of `s` over record `r`.
+    fn readings(mut s: Simulator, r: &Record) -> [(u32, u32); 60] {
+        let mut out = [(0, 0); 60];
+        for (k, o) in out.iter_mut().enumerate() {
+            let y = match r.averaged > 1 {
+                true => s.sample::<true>(),
+                false => s.sample::<false>(),
+            };
+            *o = (y.omega.to_bits(), y.current.to_bits());
+            match r.averaged > 1 {
+                true => s.apply_record::<true>(&r.step_input(k, false)),
+                false => s.apply_record::<false>(&r.step_input(k, false)),
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_simulator_like_another_of_the_same_motor_takes_its_coefficients_and_no_other() {
+        // Voltage steps with stops and reversals against Coulomb friction, in records of
+        // averaged and of instant readings. A set differing from `like`'s only in an
+        // effect's parameter, or in its start, simulates bit for bit as one built anew; so
+        // does one with another motor, which must not take `like`'s coefficients.
+        let v: [f32; 60] = core::array::from_fn(|k| [6.0, 0.0, -4.0, 1.0][k / 15]);
+        let zeros = [0.0f32; 60];
+        let p = ModelParams::PAPER_MOTOR.with(ParamId::Tc, 0.05);
+        let turning = InitialState {
+            current: 0.0,
+            omega: 3.0,
+        };
+        for m in [1, 10] {
+            let r = Record {
+                dt: 0.01,
+                v: &v,
+                omega: &zeros,
+                current: Some(&zeros),
+                load: None,
+                coast_from: None,
+                averaged: m,
+            };
+            let like = Simulator::for_record(&p, &r, InitialState::REST).unwrap();
+            let others = [
+                (p.with(ParamId::Tc, 0.06), InitialState::REST),
+                (p, turning),
+                (p.with(ParamId::B, 1.5 * p.get(ParamId::B)), turning),
+                (
+                    p.with(ParamId::Kv, 1.01 * p.get(ParamId::Kv)),
+                    InitialState::REST,
+                ),
+            ];
+            for (q, init) in others {
+                let anew = Simulator::for_record(&q, &r, init).unwrap();
+                let shared = Simulator::for_record_like(&q, &r, init, Some((&p, &like))).unwrap();
+                assert_eq!(readings(shared, &r), readings(anew, &r), "m {m}, {q:?}");
+            }
+            // Taken, not rebuilt: coefficients swapped into `like` reach the simulator of
+            // the same motor.
+            let mut swapped = like.clone();
+            let other = p.with(ParamId::J, 2.0 * p.get(ParamId::J));
+            swapped.disc = Discrete::new(&other, r.dt).unwrap();
+            let s = Simulator::for_record_like(&p, &r, turning, Some((&p, &swapped))).unwrap();
+            assert_eq!(s.disc, swapped.disc);
+            assert_ne!(s.disc, like.disc);
+        }
     }
 }
