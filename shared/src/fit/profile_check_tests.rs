@@ -67,3 +67,47 @@ fn a_descent_came_back_only_when_it_landed_near_the_optimum() {
     assert!(!came_back(&u0, &start, &[0.85, 0.5]));
     assert!(!came_back(&u0, &start, &[0.5, 0.2]));
 }
+
+#[test]
+fn a_descent_ends_where_it_came_back_and_the_check_goes_on() {
+    // The paper motor with current, a descent from half way to the box's edge along J:
+    // ended at the first point that came back, it spends fewer simulations than the
+    // full descent, stops there (came back, above the optimum's cost), and the check's
+    // next run still starts.
+    let data = Owned::paper_motor_noisy_steps(11);
+    let rec = [data.record(true, false)];
+    let spec = ProblemSpec::default();
+    let cfg = IdentifyConfig::default_pipeline(1);
+    let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
+    let objective = Objective::new(&rec).unwrap();
+    let space = Space::new(&spec, cfg.log_scale).unwrap();
+    let dim = space.dim();
+    let u0 = space.unit(&fit.params);
+    let k = space
+        .free()
+        .iter()
+        .position(|f| f.id == ParamId::J)
+        .unwrap();
+    let mut start = u0;
+    start[k] = 0.5 * (u0[k] + 1.0);
+    let lm = LmConfig::default();
+    let mut progress = |_| ControlFlow::Continue(());
+    let mut runs = Runs {
+        spent: 0,
+        progress: &mut progress,
+        stopped: false,
+    };
+    let back = |u: &[f32]| came_back(&u0[..dim], &start[..dim], u);
+    let full = runs.refine(&objective, &space, &start[..dim], &lm, &|_| false);
+    let full = full.unwrap();
+    assert!(back(&full.u[..dim]), "{:?}", &full.u[..dim]);
+    let ended = runs.refine(&objective, &space, &start[..dim], &lm, &back);
+    let ended = ended.unwrap();
+    assert!(back(&ended.u[..dim]));
+    assert!(ended.evaluations < full.evaluations, "{ended:?} {full:?}");
+    assert!(ended.cost.sse > full.cost.sse);
+    assert_eq!(runs.spent, full.evaluations + ended.evaluations);
+    assert!(runs
+        .refine(&objective, &space, &start[..dim], &lm, &back)
+        .is_some());
+}

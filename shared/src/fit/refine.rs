@@ -43,13 +43,15 @@ impl Default for LmConfig {
 
 /// Progress of one refinement iteration.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LmProgress {
+pub struct LmProgress<'u> {
     /// Iterations (Jacobians) done.
     pub iteration: u32,
     /// Evaluations spent by the refinement so far.
     pub evaluations: u32,
     /// Current cost.
     pub cost: Cost,
+    /// Current point, in unit coordinates (the cost's).
+    pub u: &'u [f32],
 }
 
 /// Result of a refinement.
@@ -110,6 +112,7 @@ pub fn levenberg_marquardt(
             iteration: iterations,
             evaluations,
             cost: ne.cost,
+            u: &u[..dim],
         };
         if progress(&report).is_break() {
             completed = false;
