@@ -34,7 +34,7 @@
 //! valley is a bowl that does not reach half way, and one from the edge comes back too:
 //! stopping there changed no verdict of the benchmarks and spared 18-23 % of the
 //! commissioning benchmark's 90th percentile at the QEMU plant's settings and on instant
-//! readings). Each point it lands on that fits as well as the optimum (a rise of at most
+//! readings; a descent ends at its first point that came back, sparing 8-13 % more). Each point it lands on that fits as well as the optimum (a rise of at most
 //! [`VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a parameter that
 //! differs there from the optimum by more than three local deviations is touched by the
 //! flat direction after all (the valley bends into it), and it is not pinned.
@@ -407,8 +407,9 @@ fn walk_the_valley(
                     start[i] = (u0[i] + sign * fraction * edge * du[i]).clamp(0.0, 1.0);
                 }
                 // A descent that has come back goes on to the optimum, or near it: it ends
-                // there (the two thirds of its simulations that followed on the MCU's
-                // loosely pinned motors changed no verdict; docs/measurements/commissioning.md).
+                // at its first point that came back (on the MCU's slowest motor, 31 of the
+                // descent's 71 simulations; no verdict of the benchmarks changed:
+                // docs/measurements/commissioning.md).
                 let back = |u: &[f32]| came_back(&u0[..dim], &start[..dim], u);
                 let Some(r) = runs.refine(objective, space, &start[..dim], &walk_lm, &back) else {
                     continue;
