@@ -34,10 +34,12 @@
 //! valley is a bowl that does not reach half way, and one from the edge comes back too:
 //! stopping there changed no verdict of the benchmarks and spared 18-23 % of the
 //! commissioning benchmark's 90th percentile at the QEMU plant's settings and on instant
-//! readings; a descent ends at its first point that came back, sparing 8-13 % more). Each point it lands on that fits as well as the optimum (a rise of at most
-//! [`VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a parameter that
-//! differs there from the optimum by more than three local deviations is touched by the
-//! flat direction after all (the valley bends into it), and it is not pinned.
+//! readings; a descent ends at its first point that came back, sparing 8-13 % more).
+//! Each point it lands on that fits as well as the optimum (a rise of at most
+//! [`VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a
+//! parameter that differs there from the optimum by more than three local deviations is
+//! touched by the flat direction after all (the valley bends into it), and it is not
+//! pinned.
 //!
 //! The walk runs only when the local analysis found a flat direction. The profiles run
 //! then for every pinned parameter, and with full rank (a record with current, on a drive
