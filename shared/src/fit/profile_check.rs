@@ -81,6 +81,18 @@ const PROFILE_TOL: f64 = 0.5;
 /// direction not pinned is informed (a board's records with current), refits stop in a
 /// step or two, and the coarser tolerance stands.
 const PROFILE_TOL_FLAT: f64 = 0.002;
+/// A profile's refit, where the fit has no numerically flat direction, stops once the cost
+/// it can still reach ([`LmConfig::needed_below`]) is this many residual variances above
+/// the optimum's: a rise of 9 or more widens nothing (`3 s / sqrt(rise) <= s`), and 18
+/// leaves the local model's prediction a margin of 9. Where a deviation holds the batch
+/// means' wider spread ([`crate::fit::identifiability`]), its profile starts far above 9:
+/// on the virtual board's run of the MCU table's motor 72 (B loosely informed), 25-900
+/// residual variances, and the ten refits took 264 simulations to end there, 97 now; on
+/// the MCU that fit went from 317 to 259 M instructions
+/// (docs/measurements/commissioning.md). Not where a direction is numerically flat: a
+/// refit there crawls along the valley in many small steps (as [`PROFILE_TOL_FLAT`]), and
+/// the local model sees one at a time.
+const PROFILE_NEEDED: f64 = 18.0;
 /// Fractions of the way to the box's edge the valley walk starts from, nearest first: a
 /// start whose descent ends off the valley ends the walk along that way.
 const WALK: [f32; 2] = [0.5, 1.0];
@@ -196,9 +208,14 @@ pub fn widen(
     };
     let farthest = walk_the_valley(id, objective, space, at, cost, sigma2, lm, &mut runs);
     let flat = id.unpinned.iter().any(|d| d.std.is_infinite());
-    let tolerance = if flat { PROFILE_TOL_FLAT } else { PROFILE_TOL };
-    // The rise is wanted to a tenth of the 9 it is compared with.
-    let profile_lm = stopping_at(lm, tolerance, sigma2);
+    // The rise is wanted to a tenth of the 9 it is compared with, and only under 9.
+    let profile_lm = match flat {
+        true => stopping_at(lm, PROFILE_TOL_FLAT, sigma2),
+        false => LmConfig {
+            needed_below: cost.sse + PROFILE_NEEDED * sigma2,
+            ..stopping_at(lm, PROFILE_TOL, sigma2)
+        },
+    };
     let mut profile = [false; MAX_FREE];
     for (k, certainty) in id.params.iter().enumerate() {
         profile[k] = profiled(id, space, certainty);

@@ -111,3 +111,46 @@ fn a_descent_ends_where_it_came_back_and_the_check_goes_on() {
         .refine(&objective, &space, &start[..dim], &lm, &back)
         .is_some());
 }
+
+#[test]
+fn a_refit_ends_once_the_level_it_needs_is_out_of_reach_and_not_before() {
+    // The paper motor with current, Ra held 20 deviations off the optimum (its profile's
+    // rise some 400 residual variances). Asked whether the refit comes under 9 residual
+    // variances above the optimum, it stops at its start's normal equations; asked for
+    // a level it can reach (the full space from the same start), it goes on to it.
+    let data = Owned::paper_motor_noisy_steps(11);
+    let rec = [data.record(true, false)];
+    let spec = ProblemSpec::default();
+    let cfg = IdentifyConfig::default_pipeline(1);
+    let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
+    let objective = Objective::new(&rec).unwrap();
+    let space = Space::new(&spec, cfg.log_scale).unwrap();
+    let sigma2 = fit.cost.sse / (fit.cost.residuals as f64 - space.dim() as f64);
+    let ra = fit.identifiability.params[0];
+    assert_eq!(ra.id, ParamId::Ra);
+    let held = ra.value + 20.0 * ra.std.expect("pinned");
+    let profile = space.fixing(&fit.params, ParamId::Ra, held).unwrap();
+    let start = profile.unit(&fit.params);
+    let refit = |space: &Space, start: &[f32], needed_below: f64| {
+        let lm = LmConfig {
+            needed_below,
+            ..stopping_at(&LmConfig::default(), PROFILE_TOL, sigma2)
+        };
+        levenberg_marquardt(&objective, space, start, &lm, &mut |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap()
+    };
+    let level = fit.cost.sse + 9.0 * sigma2;
+    let full = refit(&profile, &start[..profile.dim()], f64::INFINITY);
+    assert!(full.iterations > 0, "{full:?}");
+    assert!(full.cost.sse > level + 100.0 * sigma2, "{full:?}");
+    let ended = refit(&profile, &start[..profile.dim()], level);
+    assert_eq!(ended.iterations, 0, "{ended:?}");
+    assert!(ended.evaluations < full.evaluations, "{ended:?} {full:?}");
+    // The whole space from the same start: the optimum's level is within reach.
+    let mut from = space.unit(&fit.params);
+    from[0] = space.unit(&fit.params.with(ParamId::Ra, held))[0];
+    let reached = refit(&space, &from[..space.dim()], level);
+    assert!(reached.cost.sse < level, "{reached:?}");
+}
