@@ -53,18 +53,36 @@ pub fn elf_sizes(elf: &Path) -> (u64, u64) {
     (flash, ram)
 }
 
-/// The next footprint line the firmware writes (after a job's result, which the caller has
-/// already received): its fields by name.
+/// The next footprint line the firmware writes for a job the host asked for (after the
+/// job's result, which the caller has already received): its fields by name. The power-up
+/// commissioning's line, if any, is passed over ([`power_up_footprint`]).
 pub fn footprint_line(q: &Qemu) -> impl Fn(&str) -> f64 {
-    let line = loop {
+    fields(next_footprint(q, false))
+}
+
+/// The footprint of the commissioning the board ran at reset (the firmware meters it while
+/// the host sends nothing; call before talking to the board): its fields by name, or None
+/// when it ended without parameters (refused or aborted).
+pub fn power_up_footprint(q: &Qemu) -> Option<impl Fn(&str) -> f64> {
+    let line = next_footprint(q, true);
+    (!line.contains("outcome=no-parameters")).then(|| fields(line))
+}
+
+/// The next footprint line of the power-up commissioning (`power_up`) or of another job.
+fn next_footprint(q: &Qemu, power_up: bool) -> String {
+    loop {
         let line = q
             .stderr
-            .recv_timeout(Duration::from_secs(120))
+            .recv_timeout(Duration::from_secs(600))
             .expect("the firmware's footprint line");
-        if line.starts_with("footprint:") {
-            break line;
+        if line.starts_with("footprint:") && line.contains("job=power-up") == power_up {
+            return line;
         }
-    };
+    }
+}
+
+/// A footprint line's fields by name.
+fn fields(line: String) -> impl Fn(&str) -> f64 {
     move |key: &str| -> f64 {
         line.split_whitespace()
             .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('='))

@@ -6,8 +6,11 @@
 //! one instruction advances the virtual clock by 1 ns and SysTick (168 MHz) by 0.168 ticks,
 //! so the tick count is a deterministic instruction count. One plain-text line per job goes
 //! to semihosting stderr (defmt's binary log is on stdout):
-//! `footprint: job=identify|commission ticks=T fit_ticks=F stack_bytes=S samples=N`
-//! (`samples` of the last record streamed in; a commissioning records its own).
+//! `footprint: job=identify|commission|power-up ticks=T fit_ticks=F stack_bytes=S samples=N`
+//! (`samples` of the last record streamed in; a commissioning records its own). `power-up`
+//! is the commissioning a board without parameters runs at reset, metered from reset while
+//! the host sends nothing; one that ends without parameters (refused or aborted) prints
+//! `footprint: job=power-up outcome=no-parameters`.
 
 use core::cell::Cell;
 use core::sync::atomic::{AtomicU32, Ordering};
@@ -68,20 +71,43 @@ fn stack_high_water() -> u32 {
     }
 }
 
+/// The kind of a metered job.
+#[derive(Clone, Copy, PartialEq)]
+enum Job {
+    /// A record streamed in and identified.
+    Identify,
+    /// A commissioning the host asked for.
+    Commission,
+    /// The commissioning at reset of a board without parameters, metered while the host
+    /// stays silent (none runs where valid ones are stored: the first message ends it).
+    PowerUp,
+}
+
+impl Job {
+    fn name(self) -> &'static str {
+        match self {
+            Job::Identify => "identify",
+            Job::Commission => "commission",
+            Job::PowerUp => "power-up",
+        }
+    }
+}
+
 /// A link that meters the jobs it carries.
 pub struct MeteredLink<L> {
     inner: L,
-    /// Start of the running job and whether it is a commissioning.
-    started: Option<(u64, bool)>,
+    /// Start of the running job and its kind.
+    started: Option<(u64, Job)>,
     samples: u32,
 }
 
 impl<L> MeteredLink<L> {
-    /// Meter `inner`.
+    /// Meter `inner`, from reset: a power-up commissioning, if the board runs one, is the
+    /// first job.
     pub fn new(inner: L) -> Self {
         MeteredLink {
             inner,
-            started: None,
+            started: Some((now(), Job::PowerUp)),
             samples: 0,
         }
     }
@@ -90,17 +116,23 @@ impl<L> MeteredLink<L> {
 impl<L: Link> Link for MeteredLink<L> {
     fn send(&mut self, msg: &BoardMessage) {
         let done = matches!(msg, BoardMessage::Identified(_));
-        if let Some((t0, commission)) = self.started.filter(|_| done) {
+        let ended = matches!(msg, BoardMessage::Refused(_) | BoardMessage::Aborted);
+        if let Some((_, Job::PowerUp)) = self.started.filter(|_| ended) {
+            self.started = None;
+            cortex_m_semihosting::heprintln!("footprint: job=power-up outcome=no-parameters");
+        }
+        if let Some((t0, job)) = self.started.filter(|_| done) {
             self.started = None;
             let end = now();
-            let fit_from = if commission {
-                interrupt::free(|cs| DRIVE_STOPPED.borrow(cs).get()).max(t0)
-            } else {
-                t0
+            let fit_from = match job {
+                Job::Identify => t0,
+                Job::Commission | Job::PowerUp => {
+                    interrupt::free(|cs| DRIVE_STOPPED.borrow(cs).get()).max(t0)
+                }
             };
             cortex_m_semihosting::heprintln!(
                 "footprint: job={} ticks={} fit_ticks={} stack_bytes={} samples={}",
-                if commission { "commission" } else { "identify" },
+                job.name(),
                 end - t0,
                 end - fit_from,
                 stack_high_water(),
@@ -112,10 +144,15 @@ impl<L: Link> Link for MeteredLink<L> {
 
     fn poll(&mut self) -> Option<HostMessage> {
         let msg = self.inner.poll();
+        if msg.is_some() && matches!(self.started, Some((_, Job::PowerUp))) {
+            // A host that talks during the power-up commissioning meters its own jobs: the
+            // power-up's is not reported (a reply to the host would be taken for its end).
+            self.started = None;
+        }
         match &msg {
             Some(HostMessage::IdentifyBegin { samples, .. }) => self.samples = *samples,
-            Some(HostMessage::Identify { .. }) => self.started = Some((now(), false)),
-            Some(HostMessage::Commission { .. }) => self.started = Some((now(), true)),
+            Some(HostMessage::Identify { .. }) => self.started = Some((now(), Job::Identify)),
+            Some(HostMessage::Commission { .. }) => self.started = Some((now(), Job::Commission)),
             _ => {}
         }
         msg
