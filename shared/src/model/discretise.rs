@@ -268,27 +268,70 @@ pub(crate) fn exp_minus_identity_and_integral(a: &M2, t: f64) -> (M2, M2) {
     (g, f)
 }
 
-/// Taylor series of `e^{At} - I` and its integral, for `|lambda| t < 0.5`.
+/// Taylor series of `e^{At} - I` and its integral, for `|lambda| t < 0.5`, summed on
+/// scalars. By Cayley-Hamilton every power of the 2x2 matrix `X = At` is `p_k X + q_k I`,
+/// with `p_0 = 0`, `q_0 = 1` and `p_{k+1} = tr(X) p_k + q_k`, `q_{k+1} = -det(X) p_k`, so
+/// `e^X - I = (sum_{k>=1} q_k / k!) I + (sum_{k>=1} p_k / k!) X` and
+/// `integral_0^t e^{As} ds = t ((sum_{k>=0} q_k / (k+1)!) I + (sum_{k>=0} p_k / (k+1)!) X)`:
+/// four scalar sums, a few soft-float operations a term on the M4F, where the matrix
+/// series took a 2x2 product, four divisions and sixteen comparisons a term (the
+/// discretisations at a stop or a break-away within a step were a fifth of a commissioning
+/// fit's instructions: docs/measurements/commissioning.md). `det(X)` adds two products of
+/// one sign (paper Eq. 5: `Ra B / (La J)` and `Kv^2 / (La J)`), and each coefficient is
+/// its sums without cancellation (the slow mode's `g[1][1]` is `X_11 + X_10 X_01 phi_2`).
 ///
-/// The sums stop once two terms in a row are under [`NEGLIGIBLE`] of every entry they add
-/// to: from there on each term is below half an f64 unit in the last place of its sum,
-/// which adding it leaves unchanged, bit for bit, so the result is the full series' (at
-/// most [`TAYLOR_TERMS`], what every case took before). In soft-float f64 on the M4F the
-/// discretisations were half of a commissioning fit's instructions, most of them a
-/// simulation's drive step over a share of its record's step (`|lambda| t` of 0.01-0.1,
-/// 6-9 terms instead of 24; docs/measurements/commissioning.md).
+/// The sums stop once two terms in a row are under [`NEGLIGIBLE`] of every sum they add
+/// to (each later term is smaller still, `|lambda| t < 0.5`): the result agrees with
+/// [`taylor_sums`]' matrix series to a few f64 units in the last place, and the f32
+/// coefficients made from it are the same (the test holds both over 3,600 motors and steps).
 fn taylor(a: &M2, t: f64) -> (M2, M2) {
-    taylor_sums(a, t, true)
+    let x = [[a[0][0] * t, a[0][1] * t], [a[1][0] * t, a[1][1] * t]];
+    let tr = x[0][0] + x[1][1];
+    let det = x[0][0] * x[1][1] - x[0][1] * x[1][0];
+    // The k = 0 and k = 1 terms: X^0 = I (only in the integral's sums), X^1 = X.
+    let (mut p, mut q) = (1.0f64, 0.0f64);
+    let mut c = 1.0f64; // 1 / k!
+    let (mut g_p, mut g_q) = (1.0f64, 0.0f64);
+    let (mut f_p, mut f_q) = (0.5f64, 1.0f64);
+    let mut negligible_before = false;
+    for k in 2..=TAYLOR_TERMS {
+        (p, q) = (tr * p + q, -det * p);
+        let kf = k as f64;
+        c /= kf;
+        let cf = c / (kf + 1.0);
+        let (tg_p, tg_q, tf_p, tf_q) = (p * c, q * c, p * cf, q * cf);
+        g_p += tg_p;
+        g_q += tg_q;
+        f_p += tf_p;
+        f_q += tf_q;
+        let small = |term: f64, sum: f64| term.abs() <= NEGLIGIBLE * sum.abs();
+        let negligible =
+            small(tg_p, g_p) && small(tg_q, g_q) && small(tf_p, f_p) && small(tf_q, f_q);
+        if negligible && negligible_before {
+            break;
+        }
+        negligible_before = negligible;
+    }
+    let g = [
+        [g_q + g_p * x[0][0], g_p * x[0][1]],
+        [g_p * x[1][0], g_q + g_p * x[1][1]],
+    ];
+    let f = [
+        [t * (f_q + f_p * x[0][0]), t * f_p * x[0][1]],
+        [t * f_p * x[1][0], t * (f_q + f_p * x[1][1])],
+    ];
+    (g, f)
 }
 
-/// [`taylor`]'s sums, stopped early with `early`, else over all [`TAYLOR_TERMS`].
-fn taylor_sums(a: &M2, t: f64, early: bool) -> (M2, M2) {
+/// The matrix Taylor series of `e^{At} - I` and its integral over all [`TAYLOR_TERMS`]
+/// (the reference [`taylor`] is held to).
+#[cfg(test)]
+fn taylor_sums(a: &M2, t: f64) -> (M2, M2) {
     let at = [[a[0][0] * t, a[0][1] * t], [a[1][0] * t, a[1][1] * t]];
     // term_k = (At)^k / k!; g = sum_{k>=1} term_k; f = t * sum_{k>=0} term_k / (k+1).
     let mut term: M2 = [[1.0, 0.0], [0.0, 1.0]];
     let mut g: M2 = [[0.0; 2]; 2];
     let mut f: M2 = [[t, 0.0], [0.0, t]];
-    let mut negligible_before = false;
     for k in 1..=TAYLOR_TERMS {
         let next = mat_mul(&term, &at);
         let kf = k as f64;
@@ -297,28 +340,22 @@ fn taylor_sums(a: &M2, t: f64, early: bool) -> (M2, M2) {
             [next[1][0] / kf, next[1][1] / kf],
         ];
         let scale = t / (kf + 1.0);
-        let mut negligible = true;
         for r in 0..2 {
             for c in 0..2 {
                 g[r][c] += term[r][c];
                 f[r][c] += term[r][c] * scale;
-                negligible &= term[r][c].abs() <= NEGLIGIBLE * g[r][c].abs()
-                    && (term[r][c] * scale).abs() <= NEGLIGIBLE * f[r][c].abs();
             }
         }
-        if early && negligible && negligible_before {
-            break;
-        }
-        negligible_before = negligible;
     }
     (g, f)
 }
 
-/// Most terms of [`taylor`]'s series.
+/// Most terms of the Taylor series (`|lambda| t < 0.5`: the 24th is under 2^-100 of the
+/// first).
 const TAYLOR_TERMS: u32 = 24;
 /// A term of [`taylor`]'s series this small against its sum (2^-64, 2^11 under half an
-/// f64 unit in the last place) leaves the sum unchanged, and so does every later one, each
-/// smaller still (`|lambda| t < 0.5`; the test holds the sums to the full series' bits).
+/// f64 unit in the last place) changes the sum by nothing, and so does every later one,
+/// each smaller still.
 const NEGLIGIBLE: f64 = 5.421010862427522e-20;
 
 /// `sin x / x` for `x >= 0`, given `sin x`.
