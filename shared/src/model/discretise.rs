@@ -290,15 +290,12 @@ fn taylor(a: &M2, t: f64) -> (M2, M2) {
     let det = x[0][0] * x[1][1] - x[0][1] * x[1][0];
     // The k = 0 and k = 1 terms: X^0 = I (only in the integral's sums), X^1 = X.
     let (mut p, mut q) = (1.0f64, 0.0f64);
-    let mut c = 1.0f64; // 1 / k!
     let (mut g_p, mut g_q) = (1.0f64, 0.0f64);
     let (mut f_p, mut f_q) = (0.5f64, 1.0f64);
     let mut negligible_before = false;
-    for k in 2..=TAYLOR_TERMS {
+    for k in 2..=TAYLOR_TERMS as usize {
         (p, q) = (tr * p + q, -det * p);
-        let kf = k as f64;
-        c /= kf;
-        let cf = c / (kf + 1.0);
+        let (c, cf) = (INV_FACTORIAL[k], INV_FACTORIAL[k + 1]);
         let (tg_p, tg_q, tf_p, tf_q) = (p * c, q * c, p * cf, q * cf);
         g_p += tg_p;
         g_q += tg_q;
@@ -353,6 +350,37 @@ fn taylor_sums(a: &M2, t: f64) -> (M2, M2) {
 /// Most terms of the Taylor series (`|lambda| t < 0.5`: the 24th is under 2^-100 of the
 /// first).
 const TAYLOR_TERMS: u32 = 24;
+/// `1 / k!` for `k` = 0 to `TAYLOR_TERMS + 1`, each the f64 nearest the exact fraction (no
+/// division in [`taylor`]'s terms: one costs about a hundred instructions in soft float).
+#[allow(clippy::excessive_precision)]
+const INV_FACTORIAL: [f64; TAYLOR_TERMS as usize + 2] = [
+    1.0,
+    1.0,
+    0.5,
+    0.16666666666666666,
+    0.041666666666666664,
+    0.008333333333333333,
+    0.001388888888888889,
+    0.0001984126984126984,
+    2.48015873015873e-05,
+    2.7557319223985893e-06,
+    2.755731922398589e-07,
+    2.505210838544172e-08,
+    2.08767569878681e-09,
+    1.6059043836821613e-10,
+    1.1470745597729725e-11,
+    7.647163731819816e-13,
+    4.779477332387385e-14,
+    2.8114572543455206e-15,
+    1.5619206968586225e-16,
+    8.22063524662433e-18,
+    4.110317623312165e-19,
+    1.9572941063391263e-20,
+    8.896791392450574e-22,
+    3.868170170630684e-23,
+    1.6117375710961184e-24,
+    6.446950284384474e-26,
+];
 /// A term of [`taylor`]'s series this small against its sum (2^-64, 2^11 under half an
 /// f64 unit in the last place) changes the sum by nothing, and so does every later one,
 /// each smaller still.

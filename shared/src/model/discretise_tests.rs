@@ -157,3 +157,25 @@ fn refuses_bad_parameters() {
         Err(Error::InvalidStep)
     );
 }
+
+#[test]
+fn the_inverse_factorials_are_the_fractions() {
+    // Each entry against k! built exactly in integers (u128 holds 25!), and against the
+    // recurrence 1/k! = (1/(k-1)!) / k: within an f64 unit in the last place of both.
+    let mut factorial = 1u128;
+    for (k, &inv) in INV_FACTORIAL.iter().enumerate() {
+        if k > 0 {
+            factorial *= k as u128;
+        }
+        let exact = 1.0 / factorial as f64;
+        assert!(
+            ((inv - exact) / exact).abs() < 3e-16,
+            "{k}: {inv:e} {exact:e}"
+        );
+        if k > 0 {
+            let by_recurrence = INV_FACTORIAL[k - 1] / k as f64;
+            assert!(((inv - by_recurrence) / inv).abs() < 3e-16, "{k}");
+        }
+    }
+    assert_eq!(INV_FACTORIAL.len(), TAYLOR_TERMS as usize + 2);
+}
