@@ -211,6 +211,11 @@ pub(crate) fn mat_mul(x: &M2, y: &M2) -> M2 {
     ]
 }
 
+/// `k x`.
+pub(crate) fn mat_scaled(x: &M2, k: f64) -> M2 {
+    [[x[0][0] * k, x[0][1] * k], [x[1][0] * k, x[1][1] * k]]
+}
+
 /// `p I + q (A - m I)`.
 fn combine(p: f64, q: f64, a: &M2, m: f64) -> M2 {
     [
@@ -285,7 +290,7 @@ pub(crate) fn exp_minus_identity_and_integral(a: &M2, t: f64) -> (M2, M2) {
 /// [`taylor_sums`]' matrix series to a few f64 units in the last place, and the f32
 /// coefficients made from it are the same (the test holds both over 3,600 motors and steps).
 fn taylor(a: &M2, t: f64) -> (M2, M2) {
-    let x = [[a[0][0] * t, a[0][1] * t], [a[1][0] * t, a[1][1] * t]];
+    let x = mat_scaled(a, t);
     let tr = x[0][0] + x[1][1];
     let det = x[0][0] * x[1][1] - x[0][1] * x[1][0];
     // The k = 0 and k = 1 terms: X^0 = I (only in the integral's sums), X^1 = X.
@@ -309,6 +314,8 @@ fn taylor(a: &M2, t: f64) -> (M2, M2) {
         }
         negligible_before = negligible;
     }
+    // g_q I + g_p X and t (f_q I + f_p X), written out: [`combine`]'s `A - m I` would add
+    // four soft-float subtractions of zero.
     let g = [
         [g_q + g_p * x[0][0], g_p * x[0][1]],
         [g_p * x[1][0], g_q + g_p * x[1][1]],
@@ -324,7 +331,7 @@ fn taylor(a: &M2, t: f64) -> (M2, M2) {
 /// (the reference [`taylor`] is held to).
 #[cfg(test)]
 fn taylor_sums(a: &M2, t: f64) -> (M2, M2) {
-    let at = [[a[0][0] * t, a[0][1] * t], [a[1][0] * t, a[1][1] * t]];
+    let at = mat_scaled(a, t);
     // term_k = (At)^k / k!; g = sum_{k>=1} term_k; f = t * sum_{k>=0} term_k / (k+1).
     let mut term: M2 = [[1.0, 0.0], [0.0, 1.0]];
     let mut g: M2 = [[0.0; 2]; 2];

@@ -16,7 +16,9 @@
 //! The first-order steps (rotor held, paper Eq. 1; no armature current, paper Eq. 4) have
 //! their own means the same way.
 
-use crate::model::discretise::{exp_minus_identity_and_integral, first_order, mat_mul, Motor, M2};
+use crate::model::discretise::{
+    exp_minus_identity_and_integral, first_order, mat_mul, mat_scaled, Motor, M2,
+};
 use crate::model::params::ModelParams;
 
 /// Coefficients of the mean of the state over one step of `m` drive samples.
@@ -61,10 +63,7 @@ impl Commuting for M2 {
         mat_mul(self, y)
     }
     fn scaled(&self, k: f64) -> M2 {
-        [
-            [self[0][0] * k, self[0][1] * k],
-            [self[1][0] * k, self[1][1] * k],
-        ]
+        mat_scaled(self, k)
     }
 }
 
