@@ -30,13 +30,13 @@
 //! the descent from half way already ends above the optimum's fit, the valley holds no
 //! equal fit that far out, and one from farther up ends higher: on the commissioning
 //! benchmark, stopping there changed no verdict of the 1,000 motors and spared 8 % of the
-//! 90th percentile's simulations; where it comes back to the optimum, [`CAME_BACK`], the
+//! 90th percentile's simulations; where it comes back to the optimum, [`walk::CAME_BACK`], the
 //! valley is a bowl that does not reach half way, and one from the edge comes back too:
 //! stopping there changed no verdict of the benchmarks and spared 18-23 % of the
 //! commissioning benchmark's 90th percentile at the QEMU plant's settings and on instant
 //! readings; a descent ends at its first point that came back, sparing 8-13 % more).
 //! Each point it lands on that fits as well as the optimum (a rise of at most
-//! [`VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a
+//! [`walk::VALLEY_FIT`] in chi^2) is an equally good answer the data cannot tell apart: a
 //! parameter that differs there from the optimum by more than three local deviations is
 //! touched by the flat direction after all (the valley bends into it), and it is not
 //! pinned.
@@ -59,15 +59,13 @@ use crate::fit::space::Space;
 use crate::model::params::ModelParams;
 use crate::param_id::ParamId;
 use core::ops::ControlFlow;
+use walk::{walk_the_valley, WALK};
+
+#[path = "profile_check_walk.rs"]
+mod walk;
 
 /// How many local standard deviations the profile steps to each side.
 const STEPS: f64 = 3.0;
-/// A point of the valley walk fits as well as the optimum when its cost rises by at most
-/// this much over the optimum's, in units of the residual variance (`d chi^2 <= 1`: within
-/// one standard deviation, data that cannot tell the two apart). Relative to the residual's
-/// variance, so that a model that misfits (a residual several times the noise) is not given
-/// a wider valley than one that fits.
-const VALLEY_FIT: f64 = 1.0;
 /// A profile's refit stops once an accepted step lowers the cost by less than this, in
 /// units of the residual variance: the rise it measures is compared with 9, and a tenth
 /// of it is within the rise's own scatter.
@@ -93,9 +91,6 @@ const PROFILE_TOL_FLAT: f64 = 0.002;
 /// refit there crawls along the valley in many small steps (as [`PROFILE_TOL_FLAT`]), and
 /// the local model sees one at a time.
 const PROFILE_NEEDED: f64 = 18.0;
-/// Fractions of the way to the box's edge the valley walk starts from, nearest first: a
-/// start whose descent ends off the valley ends the walk along that way.
-const WALK: [f32; 2] = [0.5, 1.0];
 
 /// A pinned parameter whose local deviation exceeds this (in its natural coordinate: 3 %
 /// for a log coordinate) is profiled even where the fit has no flat direction: its
@@ -353,100 +348,6 @@ fn profile_start(
     let profile = space.fixing(&along, id, value).ok()?;
     let start = profile.unit(&along);
     Some((profile, start))
-}
-
-/// A descent of the walk that lands nearer the optimum than this share of its start's
-/// distance from it (in unit coordinates) came back: the valley holds no equal fit that
-/// far out that way, and a descent from farther out (the edge) comes back the same way.
-/// (A landing as far out in another direction, where the valley bends, has not come
-/// back: the walk goes on to the edge.) On the four MCU benchmark motors whose viscous
-/// loss is a per cent of their Coulomb torque (B known to 11-15 %, not pinned), every
-/// descent came back to within 3 % of the way and every other parameter to within 0.1 of
-/// its local deviation; the descents from the edge had cost a third of the check's
-/// 310-400 simulations (docs/measurements/commissioning.md).
-const CAME_BACK: f32 = 0.25;
-
-/// Whether the descent from `start` that landed at `landed` came back to the optimum
-/// `u0` ([`CAME_BACK`]).
-fn came_back(u0: &[f32], start: &[f32], landed: &[f32]) -> bool {
-    let (mut landed_sq, mut start_sq) = (0.0f32, 0.0f32);
-    for ((o, s), l) in u0.iter().zip(start).zip(landed) {
-        landed_sq += (l - o) * (l - o);
-        start_sq += (s - o) * (s - o);
-    }
-    landed_sq < CAME_BACK * CAME_BACK * start_sq
-}
-
-/// The valley walk (module doc): for every free parameter, its largest distance from the
-/// optimum over the points of the flat directions' valley that fit as well (in its own
-/// unit; `sigma2` the residual variance).
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn walk_the_valley(
-    id: &Identifiability,
-    objective: &Objective,
-    space: &Space,
-    at: &ModelParams,
-    cost: &Cost,
-    sigma2: f64,
-    lm: &LmConfig,
-    runs: &mut Runs,
-) -> [f64; MAX_FREE] {
-    let dim = space.dim();
-    let free = space.free();
-    let u0 = space.unit(at);
-    let mut farthest = [0.0f64; MAX_FREE];
-    // A point is judged against VALLEY_FIT: the descent onto the valley stops at a tenth
-    // of it (the crawl along the valley's floor that follows would not change the verdict).
-    let walk_lm = stopping_at(lm, 0.1 * VALLEY_FIT, sigma2);
-    for direction in &id.unpinned {
-        // The direction in unit coordinates (natural = per_unit * unit).
-        let mut du = [0.0f32; MAX_FREE];
-        for i in 0..dim {
-            du[i] = (f64::from(direction.components[i])
-                / free[i].natural_per_unit(at.get(free[i].id))) as f32;
-        }
-        for sign in [-1.0f32, 1.0] {
-            // How far along `sign du` the box allows.
-            let mut edge = f32::INFINITY;
-            for i in 0..dim {
-                let d = sign * du[i];
-                if d > 0.0 {
-                    edge = edge.min((1.0 - u0[i]) / d);
-                } else if d < 0.0 {
-                    edge = edge.min(-u0[i] / d);
-                }
-            }
-            if !edge.is_finite() || edge <= 0.0 {
-                continue;
-            }
-            for fraction in WALK {
-                let mut start = [0.0f32; MAX_FREE];
-                for i in 0..dim {
-                    start[i] = (u0[i] + sign * fraction * edge * du[i]).clamp(0.0, 1.0);
-                }
-                // A descent that has come back goes on to the optimum, or near it: it ends
-                // at its first point that came back (on the MCU's slowest motor, 31 of the
-                // descent's 71 simulations; no verdict of the benchmarks changed:
-                // docs/measurements/commissioning.md).
-                let back = |u: &[f32]| came_back(&u0[..dim], &start[..dim], u);
-                let Some(r) = runs.refine(objective, space, &start[..dim], &walk_lm, &back) else {
-                    continue;
-                };
-                if (r.cost.sse - cost.sse) / sigma2 > VALLEY_FIT {
-                    break;
-                }
-                for (i, f) in free.iter().enumerate() {
-                    let d = f64::from((f.value(r.u[i]) - at.get(f.id)).abs());
-                    farthest[i] = farthest[i].max(d);
-                }
-                if came_back(&u0[..dim], &start[..dim], &r.u[..dim]) {
-                    break;
-                }
-            }
-        }
-    }
-    farthest
 }
 
 #[cfg(test)]

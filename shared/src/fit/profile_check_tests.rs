@@ -1,5 +1,6 @@
 //! Tests of the profile check (`fit::profile_check`).
 
+use super::walk::came_back;
 use super::*;
 use crate::fit::identifiability::analyse;
 use crate::fit::identify::identify;
