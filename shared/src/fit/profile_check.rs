@@ -41,9 +41,15 @@
 //! touched by the flat direction after all (the valley bends into it), and it is not
 //! pinned.
 //!
-//! The walk runs only when the local analysis found a flat direction. The profiles run
-//! then for every pinned parameter, and with full rank (a record with current, on a drive
-//! board) for a pinned parameter whose deviation exceeds [`CURVED_STD`]: there too the
+//! The walk runs only when the local analysis found a direction it does not pin. The
+//! profiles run then for every pinned parameter where that direction is numerically flat;
+//! where it is informed, only more loosely than pinned allows (B beside a Coulomb torque a
+//! hundred times its viscous one), for a pinned parameter whose profile reaches along it
+//! by one of its deviations or more ([`reaches_along`]: the MCU table's motor 14, whose B
+//! is loose, profiled one of five, its fit 224 -> 130 M instructions; the benchmarks'
+//! verdicts but one alike, docs/measurements/commissioning.md). And with full rank (a
+//! record with current, on a drive board) for a pinned parameter whose deviation exceeds
+//! [`CURVED_STD`]: there too the
 //! valley can bend within `+- 3 s` (a motor whose viscous loss dwarfs its back-EMF, where
 //! J, B, Kv and tc slide together). On the commissioning benchmark (1,000 motors of the
 //! box, docs/measurements/commissioning.md) that took the pinned estimates within 3 `s` of
@@ -52,7 +58,9 @@
 //! nothing is spent.
 
 use crate::capacity::MAX_FREE;
-use crate::fit::identifiability::{Identifiability, ParamCertainty, ProfileLines, PINNED_STD};
+use crate::fit::identifiability::{
+    Direction, Identifiability, ParamCertainty, ProfileLines, PINNED_STD,
+};
 use crate::fit::objective::{Cost, Objective};
 use crate::fit::refine::{levenberg_marquardt, LmConfig, LmResult};
 use crate::fit::space::Space;
@@ -100,18 +108,36 @@ const PROFILE_NEEDED: f64 = 18.0;
 /// commissioning benchmark's motors for 99.2 % within 3 `s`, at 3 % on 13 % for 99.1 %.
 const CURVED_STD: f64 = 0.03;
 
-/// Whether `certainty` is profiled: pinned, and either the fit has a flat direction or its
-/// deviation is wide enough for the valley to bend within the steps ([`CURVED_STD`]).
+/// Whether `certainty` is profiled: pinned, and either its deviation is wide enough for
+/// the valley to bend within the steps ([`CURVED_STD`]) or its profile line reaches along
+/// a direction the data does not pin ([`reaches_along`]).
 fn profiled(id: &Identifiability, space: &Space, certainty: &ParamCertainty) -> bool {
     let Some(std) = certainty.std.filter(|_| certainty.pinned) else {
         return false;
     };
-    if !id.unpinned.is_empty() {
-        return true;
-    }
-    space.free().iter().any(|f| {
-        f.id == certainty.id && f64::from(std) / f.natural_scale(certainty.value) > CURVED_STD
-    })
+    let Some((k, free)) = space
+        .free()
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.id == certainty.id)
+    else {
+        return false;
+    };
+    let natural = f64::from(std) / free.natural_scale(certainty.value);
+    natural > CURVED_STD || id.unpinned.iter().any(|d| reaches_along(d, k, natural))
+}
+
+/// Whether the profile of free parameter `k` (local deviation `natural`, in its natural
+/// coordinate) at `+- 3 s` reaches along `direction` by one of its deviations or more:
+/// always where it is numerically flat; where it is informed loosely, the profile line
+/// moves along it by `3 |c_k| s_d / s` of its deviations `s_d` (`c_k` the direction's
+/// component: its share of the parameter's variance is `(c_k s_d / s)^2`). Less, and the
+/// profile stays within a deviation of the optimum along it, where the valley has no room
+/// to bend; a parameter so profiled before measured its rise at 9 to the profile's own
+/// scatter (docs/measurements/commissioning.md).
+fn reaches_along(direction: &Direction, k: usize, natural: f64) -> bool {
+    let reach = STEPS * f64::from(direction.components[k].abs()) * f64::from(direction.std);
+    !direction.std.is_finite() || reach >= natural
 }
 
 /// Whether the check has work: a parameter to profile ([`profiled`]).

@@ -155,3 +155,96 @@ fn a_refit_ends_once_the_level_it_needs_is_out_of_reach_and_not_before() {
     let reached = refit(&space, &from[..space.dim()], level);
     assert!(reached.cost.sse < level, "{reached:?}");
 }
+
+#[test]
+fn a_profile_that_stays_within_a_loose_deviation_would_not_widen_its_parameter() {
+    // One start-up step of the paper motor with current under heavy noise: a direction
+    // informed more loosely than pinned allows (finite, not flat). A pinned parameter
+    // whose profile line moves along it by less than one of its deviations is not
+    // profiled; profiled anyway, its rise at 3 deviations is close to 9 (it would widen its
+    // deviation by a few per cent at most), and the parameters so left are not all of them.
+    let noise = crate::model::synth::Noise {
+        omega: 20.0,
+        current: 2.0,
+    };
+    let data = Owned::paper_motor(crate::model::profile::Profile::Start, 0.01, 2000, noise, 3);
+    let rec = [data.record(true, false)];
+    let spec = ProblemSpec::default();
+    let cfg = IdentifyConfig::default_pipeline(2);
+    let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
+    let objective = Objective::new(&rec).unwrap();
+    let space = Space::new(&spec, cfg.log_scale).unwrap();
+    let mut lines: ProfileLines = Default::default();
+    let u = space.unit(&fit.params);
+    let id = analyse(
+        &objective,
+        &space,
+        &u[..space.dim()],
+        &fit.cost,
+        false,
+        &mut lines,
+    )
+    .unwrap();
+    assert!(!id.unpinned.is_empty(), "{id:?}");
+    assert!(id.unpinned.iter().all(|d| d.std.is_finite()), "{id:?}");
+    let sigma2 = fit.cost.sse / (fit.cost.residuals as f64 - space.dim() as f64);
+    let lm = stopping_at(&LmConfig::default(), PROFILE_TOL, sigma2);
+    let mut progress = |_| ControlFlow::Continue(());
+    let mut runs = Runs {
+        spent: 0,
+        progress: &mut progress,
+        stopped: false,
+    };
+    let (mut left, mut profiled_ones) = (0, 0);
+    for (k, c) in id.params.iter().enumerate() {
+        let Some(std) = c.std.filter(|_| c.pinned) else {
+            continue;
+        };
+        if profiled(&id, &space, c) {
+            profiled_ones += 1;
+            continue;
+        }
+        left += 1;
+        for side in [-1.0f32, 1.0] {
+            let value = f64::from(c.value + side * STEPS as f32 * std);
+            let rise = profile_rise(
+                &objective,
+                &space,
+                &fit.params,
+                c.id,
+                value,
+                &lines[k],
+                &fit.cost,
+                sigma2,
+                &lm,
+                &mut runs,
+            )
+            .expect("a profile");
+            assert!(rise > 8.0, "{:?} at {side}: rise {rise}", c.id);
+        }
+    }
+    assert!(
+        left > 0 && profiled_ones > 0,
+        "left {left}, profiled {profiled_ones}"
+    );
+}
+
+#[test]
+fn a_profile_reaches_along_a_flat_direction_always_and_a_loose_one_by_its_deviations() {
+    let mut components = [0.0f32; MAX_FREE];
+    components[1] = 0.2;
+    let loose = Direction {
+        components,
+        std: 0.5,
+    };
+    // 3 x 0.2 x 0.5 = 0.3 of the direction's deviations' natural length.
+    assert!(reaches_along(&loose, 1, 0.2));
+    assert!(reaches_along(&loose, 1, 0.3));
+    assert!(!reaches_along(&loose, 1, 0.4));
+    assert!(!reaches_along(&loose, 0, 1e-6));
+    let flat = Direction {
+        std: f32::INFINITY,
+        ..loose
+    };
+    assert!(reaches_along(&flat, 0, 1.0));
+}

@@ -174,12 +174,35 @@ fn local_model_ends(ne: &NormalEquations, u: &[f32; MAX_FREE], dim: usize, cfg: 
     if !cfg.needed_below.is_finite() && cfg.abs_tol <= 0.0 {
         return false;
     }
-    let max_diag = (0..dim).map(|i| ne.jtj[i][i]).fold(0.0f64, f64::max);
-    let Some(du) = projected_step(ne, u, 0.0, max_diag, dim) else {
+    let Some(gain) = undamped_gain(ne, u, dim) else {
         return false;
     };
-    let gain = -(0..dim).map(|i| ne.jtr[i] * du[i]).sum::<f64>();
     ne.cost.sse - 2.0 * gain >= cfg.needed_below || too_small(gain, cfg)
+}
+
+/// The gain `g^T H^-1 g` the undamped Gauss-Newton step from `u` predicts (the bounds held
+/// as [`projected_step`] holds them); None where it cannot be solved.
+fn undamped_gain(ne: &NormalEquations, u: &[f32; MAX_FREE], dim: usize) -> Option<f64> {
+    let max_diag = (0..dim).map(|i| ne.jtj[i][i]).fold(0.0f64, f64::max);
+    let du = projected_step(ne, u, 0.0, max_diag, dim)?;
+    Some(-(0..dim).map(|i| ne.jtr[i] * du[i]).sum::<f64>())
+}
+
+/// Whether a step that lowered the SSE by `fell` where its local model predicted `predicted`
+/// ends a refinement to a tolerance ([`LmConfig::abs_tol`]) without normal equations at the
+/// new point: the model held over the step (it predicted the fall to within half the
+/// tolerance), and what it leaves to gain beyond it (the undamped step's `reachable` less
+/// the fall) is under half the tolerance, so that the new point's model would end the
+/// refinement ([`too_small`]). The profile check's refits that take one step, from their
+/// profile line onto the valley's floor, spared the 1 + dim simulations of those normal
+/// equations (docs/measurements/commissioning.md).
+fn model_held(fell: f64, predicted: f64, reachable: Option<f64>, cfg: &LmConfig) -> bool {
+    let Some(reachable) = reachable else {
+        return false;
+    };
+    cfg.abs_tol > 0.0
+        && 2.0 * (fell - predicted).abs() < cfg.abs_tol
+        && too_small(reachable - fell, cfg)
 }
 
 /// Whether a step whose local model predicts the SSE to fall by `gain` is not worth its
@@ -226,6 +249,11 @@ fn lm_step(
     if max_diag <= 0.0 {
         return StepOutcome::Stalled { evaluations };
     }
+    // What the undamped step predicts, for a refinement to a tolerance ([`model_held`]).
+    let reachable = match cfg.abs_tol > 0.0 {
+        true => undamped_gain(ne, u, dim),
+        false => None,
+    };
     while *lambda <= 1e10 {
         let mut trial = *u;
         let moved = match projected_step(ne, u, *lambda, max_diag, dim) {
@@ -250,9 +278,15 @@ fn lm_step(
         };
         match trial_cost {
             Some(c) if c.sse < ne.cost.sse => {
-                let gain = (ne.cost.sse - c.sse) / ne.cost.sse.max(f64::MIN_POSITIVE);
+                let fell = ne.cost.sse - c.sse;
+                let gain = fell / ne.cost.sse.max(f64::MIN_POSITIVE);
                 *lambda = (*lambda / 5.0).max(1e-12);
-                if gain < cfg.rel_tol || ne.cost.sse - c.sse < cfg.abs_tol {
+                let mut taken: Vector = [0.0; MAX_FREE];
+                for i in 0..dim {
+                    taken[i] = f64::from(trial[i]) - f64::from(u[i]);
+                }
+                let held = model_held(fell, predicted_gain(ne, &taken, dim), reachable, cfg);
+                if gain < cfg.rel_tol || fell < cfg.abs_tol || held {
                     // The refinement ends here: the cost of the point is all it needs (the
                     // same value the normal equations would give, from the same sums).
                     *u = trial;
@@ -398,5 +432,23 @@ mod tests {
         let stepped = refit(0.25 * gained);
         assert!(stepped.iterations > 0, "{stepped:?}");
         assert!(stepped.cost.sse < from - 0.25 * gained, "{stepped:?}");
+    }
+
+    #[test]
+    fn a_step_whose_model_held_ends_a_refinement_to_a_tolerance_and_no_other() {
+        let cfg = LmConfig {
+            abs_tol: 1.0,
+            ..LmConfig::default()
+        };
+        // Predicted 10, fell 10.2 (the model held to 0.2 of the tolerance), and the
+        // undamped step predicted 10.3: 0.1 left, under half the tolerance.
+        assert!(model_held(10.2, 10.0, Some(10.3), &cfg));
+        // The model missed by 0.6, more than half the tolerance.
+        assert!(!model_held(10.6, 10.0, Some(10.3), &cfg));
+        // 0.8 left to gain by the undamped step.
+        assert!(!model_held(10.2, 10.0, Some(11.0), &cfg));
+        // No undamped step; or a refinement to its last digits.
+        assert!(!model_held(10.2, 10.0, None, &cfg));
+        assert!(!model_held(10.2, 10.0, Some(10.3), &LmConfig::default()));
     }
 }
