@@ -121,9 +121,10 @@ pub fn identify_from(
     // stopped the fit, it leaves nothing pinned.
     if let (Some(lm), true, Ok(r)) = (&cfg.refine, cfg.profile_check, &mut result) {
         if !r.completed {
-            profile_check::unchecked(&mut r.identifiability, &space);
-        } else if profile_check::applies(&r.identifiability, &space) {
-            let iterations = profile_check::runs(&r.identifiability, &space) * lm.max_iterations;
+            profile_check::unchecked(&mut r.identifiability, &space, &lines);
+        } else if profile_check::applies(&r.identifiability, &space, &lines) {
+            let iterations =
+                profile_check::runs(&r.identifiability, &space, &lines) * lm.max_iterations;
             let before = r.evaluations + r.identifiability.evaluations;
             let best = r.cost.fitness();
             let mut iteration = 0;

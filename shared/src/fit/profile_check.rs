@@ -45,11 +45,12 @@
 //! profiles run then for every pinned parameter where that direction is numerically flat;
 //! where it is informed, only more loosely than pinned allows (B beside a Coulomb torque a
 //! hundred times its viscous one), for a pinned parameter whose profile reaches along it
-//! by one of its deviations or more ([`reaches_along`]: the MCU table's motor 14, whose B
-//! is loose, profiled one of five, its fit 224 -> 130 M instructions; the benchmarks'
-//! verdicts but one alike, docs/measurements/commissioning.md). And with full rank (a
-//! record with current, on a drive board) for a pinned parameter whose deviation exceeds
-//! [`CURVED_STD`]: there too the
+//! by one of its deviations or more ([`reaches_along`]: on the MCU table's motors 14 and
+//! 72, whose B is loose, the fits 224 -> 142 and 200 -> 167 M instructions; the
+//! commissioning benchmark's verdicts alike, one parameter of the identification
+//! benchmark's 39,676 newly beyond 3 σ, docs/measurements/commissioning.md). And, with full rank (a
+//! record with current, on a drive board) or beside a loose direction, for a pinned
+//! parameter whose deviation exceeds [`CURVED_STD`]: there too the
 //! valley can bend within `+- 3 s` (a motor whose viscous loss dwarfs its back-EMF, where
 //! J, B, Kv and tc slide together). On the commissioning benchmark (1,000 motors of the
 //! box, docs/measurements/commissioning.md) that took the pinned estimates within 3 `s` of
@@ -109,9 +110,15 @@ const PROFILE_NEEDED: f64 = 18.0;
 const CURVED_STD: f64 = 0.03;
 
 /// Whether `certainty` is profiled: pinned, and either its deviation is wide enough for
-/// the valley to bend within the steps ([`CURVED_STD`]) or its profile line reaches along
-/// a direction the data does not pin ([`reaches_along`]).
-fn profiled(id: &Identifiability, space: &Space, certainty: &ParamCertainty) -> bool {
+/// the valley to bend within the steps ([`CURVED_STD`]) or its profile (`lines`, the
+/// parameters' profile lines of [`ProfileLines`]) reaches along a direction the data does
+/// not pin ([`reaches_along`]).
+fn profiled(
+    id: &Identifiability,
+    space: &Space,
+    lines: &ProfileLines,
+    certainty: &ParamCertainty,
+) -> bool {
     let Some(std) = certainty.std.filter(|_| certainty.pinned) else {
         return false;
     };
@@ -124,31 +131,47 @@ fn profiled(id: &Identifiability, space: &Space, certainty: &ParamCertainty) -> 
         return false;
     };
     let natural = f64::from(std) / free.natural_scale(certainty.value);
-    natural > CURVED_STD || id.unpinned.iter().any(|d| reaches_along(d, k, natural))
+    natural > CURVED_STD
+        || id
+            .unpinned
+            .iter()
+            .any(|d| reaches_along(d, &lines[k], natural))
 }
 
-/// Whether the profile of free parameter `k` (local deviation `natural`, in its natural
-/// coordinate) at `+- 3 s` reaches along `direction` by one of its deviations or more:
-/// always where it is numerically flat; where it is informed loosely, the profile line
-/// moves along it by `3 |c_k| s_d / s` of its deviations `s_d` (`c_k` the direction's
-/// component: its share of the parameter's variance is `(c_k s_d / s)^2`). Less, and the
-/// profile stays within a deviation of the optimum along it, where the valley has no room
-/// to bend; a parameter so profiled before measured its rise at 9 to the profile's own
-/// scatter (docs/measurements/commissioning.md).
-fn reaches_along(direction: &Direction, k: usize, natural: f64) -> bool {
-    let reach = STEPS * f64::from(direction.components[k].abs()) * f64::from(direction.std);
-    !direction.std.is_finite() || reach >= natural
+/// Whether a profile at `+- 3 s` (`s` the parameter's local deviation `natural`, in its
+/// natural coordinate) along its profile `line` (natural coordinates per unit of its own)
+/// reaches along `direction` by one of its deviations `s_d` or more: always where the
+/// direction is numerically flat; where it is informed loosely, the profile's start moves
+/// along it by `3 s |line . c| / s_d` of them (`c` the direction's unit vector). Less, and
+/// the profile stays within a deviation of the optimum along it, where the valley has no
+/// room to bend; a parameter so profiled before measured its rise at 9 to the profile's
+/// own scatter (docs/measurements/commissioning.md).
+fn reaches_along(direction: &Direction, line: &[f32; MAX_FREE], natural: f64) -> bool {
+    if !direction.std.is_finite() {
+        return true;
+    }
+    let along: f64 = line
+        .iter()
+        .zip(&direction.components)
+        .map(|(l, c)| f64::from(*l) * f64::from(*c))
+        .sum();
+    STEPS * natural * along.abs() >= f64::from(direction.std)
 }
 
-/// Whether the check has work: a parameter to profile ([`profiled`]).
-pub fn applies(id: &Identifiability, space: &Space) -> bool {
-    id.params.iter().any(|c| profiled(id, space, c))
+/// Whether the check has work: a parameter to profile ([`profiled`]; `lines` the profile
+/// lines of the analysis that made `id`).
+pub fn applies(id: &Identifiability, space: &Space, lines: &ProfileLines) -> bool {
+    id.params.iter().any(|c| profiled(id, space, lines, c))
 }
 
 /// Most least-squares runs the check of `id` makes: the walk's (both ways along each flat
 /// direction, from each of [`WALK`]) and two profiles per profiled parameter.
-pub fn runs(id: &Identifiability, space: &Space) -> u32 {
-    let profiles = id.params.iter().filter(|c| profiled(id, space, c)).count();
+pub fn runs(id: &Identifiability, space: &Space, lines: &ProfileLines) -> u32 {
+    let profiles = id
+        .params
+        .iter()
+        .filter(|c| profiled(id, space, lines, c))
+        .count();
     (id.unpinned.len() * 2 * WALK.len() + 2 * profiles) as u32
 }
 
@@ -217,7 +240,7 @@ pub fn widen(
     lm: &LmConfig,
     progress: &mut dyn FnMut(u32) -> ControlFlow<()>,
 ) -> bool {
-    if !applies(id, space) {
+    if !applies(id, space, lines) {
         return true;
     }
     let dof = (cost.residuals as f64 - space.dim() as f64).max(1.0);
@@ -239,7 +262,7 @@ pub fn widen(
     };
     let mut profile = [false; MAX_FREE];
     for (k, certainty) in id.params.iter().enumerate() {
-        profile[k] = profiled(id, space, certainty);
+        profile[k] = profiled(id, space, lines, certainty);
     }
     for (certainty, _) in id.params.iter_mut().zip(profile).filter(|(_, p)| *p) {
         let Some(std) = certainty.std else {
@@ -291,15 +314,15 @@ pub fn widen(
     }
     id.evaluations += runs.spent;
     if runs.stopped {
-        unchecked(id, space);
+        unchecked(id, space, lines);
     }
     !runs.stopped
 }
 
 /// What a check that had work but did not run (or was stopped) leaves: no parameter
 /// pinned, since none was confirmed. Without work for it, the local analysis stands.
-pub fn unchecked(id: &mut Identifiability, space: &Space) {
-    if !applies(id, space) {
+pub fn unchecked(id: &mut Identifiability, space: &Space, lines: &ProfileLines) {
+    if !applies(id, space, lines) {
         return;
     }
     for certainty in id.params.iter_mut() {

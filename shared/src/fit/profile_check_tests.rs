@@ -200,7 +200,7 @@ fn a_profile_that_stays_within_a_loose_deviation_would_not_widen_its_parameter()
         let Some(std) = c.std.filter(|_| c.pinned) else {
             continue;
         };
-        if profiled(&id, &space, c) {
+        if profiled(&id, &space, &lines, c) {
             profiled_ones += 1;
             continue;
         }
@@ -232,19 +232,23 @@ fn a_profile_that_stays_within_a_loose_deviation_would_not_widen_its_parameter()
 #[test]
 fn a_profile_reaches_along_a_flat_direction_always_and_a_loose_one_by_its_deviations() {
     let mut components = [0.0f32; MAX_FREE];
-    components[1] = 0.2;
+    (components[0], components[1]) = (0.6, 0.8);
     let loose = Direction {
         components,
         std: 0.5,
     };
-    // 3 x 0.2 x 0.5 = 0.3 of the direction's deviations' natural length.
-    assert!(reaches_along(&loose, 1, 0.2));
-    assert!(reaches_along(&loose, 1, 0.3));
-    assert!(!reaches_along(&loose, 1, 0.4));
-    assert!(!reaches_along(&loose, 0, 1e-6));
+    // Moved by 3 x 0.2, the profile's start moves by 0.6 x (1, 0.5): along the direction
+    // by 0.6 x (0.6 + 0.4) = 0.6, more than its deviation 0.5; across it (a line of
+    // (1, -0.75)) by nothing.
+    let mut line = [0.0f32; MAX_FREE];
+    (line[0], line[1]) = (1.0, 0.5);
+    assert!(reaches_along(&loose, &line, 0.2));
+    assert!(!reaches_along(&loose, &line, 0.15));
+    (line[0], line[1]) = (1.0, -0.75);
+    assert!(!reaches_along(&loose, &line, 0.2));
     let flat = Direction {
         std: f32::INFINITY,
         ..loose
     };
-    assert!(reaches_along(&flat, 0, 1.0));
+    assert!(reaches_along(&flat, &line, 0.2));
 }

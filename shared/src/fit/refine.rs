@@ -24,8 +24,10 @@ pub struct LmConfig {
     pub rel_tol: f64,
     /// Or by less than this much (0: no absolute tolerance): a refit that needs the SSE to
     /// a set number of residual variances, not to its last digits (the profile check's).
-    /// Such a refit also ends where the local model predicts no step gains half of it, and
-    /// at the first stall of its forward differences (no central phase).
+    /// Such a refit also ends where the undamped step's local model gains under half of
+    /// it, or, the damping raised from its start, the damped step's; after a step whose
+    /// model held and left under half of it ([`model_held`]); and at the first stall of its
+    /// forward differences (no central phase).
     pub abs_tol: f64,
     /// Initial damping.
     pub lambda0: f64,
@@ -192,8 +194,8 @@ fn undamped_gain(ne: &NormalEquations, u: &[f32; MAX_FREE], dim: usize) -> Optio
 /// ends a refinement to a tolerance ([`LmConfig::abs_tol`]) without normal equations at the
 /// new point: the model held over the step (it predicted the fall to within half the
 /// tolerance), and what it leaves to gain beyond it (the undamped step's `reachable` less
-/// the fall) is under half the tolerance, so that the new point's model would end the
-/// refinement ([`too_small`]). The profile check's refits that take one step, from their
+/// the fall) is under half the tolerance: by the old point's model, the new point's would
+/// end the refinement ([`too_small`]; a guess, as every local model's). The profile check's refits that take one step, from their
 /// profile line onto the valley's floor, spared the 1 + dim simulations of those normal
 /// equations (docs/measurements/commissioning.md).
 fn model_held(fell: f64, predicted: f64, reachable: Option<f64>, cfg: &LmConfig) -> bool {
@@ -226,7 +228,8 @@ enum StepOutcome {
     /// A step was accepted that lowers the SSE by less than `rel_tol`: converged. Its
     /// normal equations are not computed (nothing would use them); `ne.cost` is its cost.
     Converged { evaluations: u32 },
-    /// No step lowers the cost, whatever the damping.
+    /// No step lowers the cost, whatever the damping; or, in a refinement to a tolerance,
+    /// none by its local model gains half of it, damped from the start ([`too_small`]).
     Stalled { evaluations: u32 },
     /// The new point's Jacobian could not be simulated.
     Failed { evaluations: u32 },
@@ -254,13 +257,21 @@ fn lm_step(
         true => undamped_gain(ne, u, dim),
         false => None,
     };
+    // Whether the damping was changed in this iteration (it starts where the last one left it).
+    let mut adjusted = false;
     while *lambda <= 1e10 {
         let mut trial = *u;
         let moved = match projected_step(ne, u, *lambda, max_diag, dim) {
             // The damped step gains less the more it is damped: once it is too small, so is
-            // every later one.
+            // every later one. At a damping the last iteration left high, from the start
+            // again first (the undamped step gains more, [`local_model_ends`]).
             Some(du) if too_small(predicted_gain(ne, &du, dim), cfg) => {
-                return StepOutcome::Stalled { evaluations }
+                if adjusted || *lambda <= cfg.lambda0 {
+                    return StepOutcome::Stalled { evaluations };
+                }
+                *lambda = cfg.lambda0;
+                adjusted = true;
+                continue;
             }
             Some(du) => {
                 for i in 0..dim {
@@ -303,7 +314,10 @@ fn lm_step(
                     StepOutcome::Failed { evaluations }
                 };
             }
-            _ => *lambda *= 4.0,
+            _ => {
+                *lambda *= 4.0;
+                adjusted = true;
+            }
         }
     }
     StepOutcome::Stalled { evaluations }
