@@ -127,3 +127,57 @@ impl Owned {
         o
     }
 }
+
+/// The default pipeline's fit of records (the default problem), with what the fit's
+/// analysis and refits work on: the records' objective and the fit's search space.
+pub struct Fitted<'r, 'a> {
+    pub fit: crate::fit::identify::Identification,
+    pub objective: crate::fit::objective::Objective<'r, 'a>,
+    pub space: crate::fit::space::Space,
+}
+
+impl<'r, 'a> Fitted<'r, 'a> {
+    /// The default pipeline's fit of `rec` with random seed `seed`.
+    pub fn of(rec: &'r [Record<'a>], seed: u64) -> Self {
+        use crate::fit::pipeline::IdentifyConfig;
+        use crate::fit::space::{ProblemSpec, Space};
+        let spec = ProblemSpec::default();
+        let cfg = IdentifyConfig::default_pipeline(seed);
+        let fit = crate::fit::identify::identify(rec, &spec, &cfg, |_| {
+            core::ops::ControlFlow::Continue(())
+        })
+        .unwrap();
+        Fitted {
+            fit,
+            objective: crate::fit::objective::Objective::new(rec).unwrap(),
+            space: Space::new(&spec, cfg.log_scale).unwrap(),
+        }
+    }
+
+    /// The residual variance at the fit (its SSE over the degrees of freedom).
+    pub fn sigma2(&self) -> f64 {
+        let dof = self.fit.cost.residuals as f64 - self.space.dim() as f64;
+        self.fit.cost.sse / dof
+    }
+
+    /// The local analysis at the fit, before any profile check, and its profile lines.
+    pub fn analysis(
+        &self,
+    ) -> (
+        crate::fit::identifiability::Identifiability,
+        crate::fit::identifiability::ProfileLines,
+    ) {
+        let mut lines = Default::default();
+        let u = self.space.unit(&self.fit.params);
+        let id = crate::fit::identifiability::analyse(
+            &self.objective,
+            &self.space,
+            &u[..self.space.dim()],
+            &self.fit.cost,
+            false,
+            &mut lines,
+        )
+        .unwrap();
+        (id, lines)
+    }
+}

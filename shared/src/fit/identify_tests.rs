@@ -9,13 +9,7 @@ use crate::testkit::Owned;
 
 /// The default pipeline with `seed` on `rec`, run to its end.
 fn default_fit(rec: &[crate::model::record::Record], seed: u64) -> Identification {
-    identify(
-        rec,
-        &ProblemSpec::default(),
-        &IdentifyConfig::default_pipeline(seed),
-        |_| ControlFlow::Continue(()),
-    )
-    .unwrap()
+    crate::testkit::Fitted::of(rec, seed).fit
 }
 
 fn assert_within(p: &ModelParams, truth: &ModelParams, rel: f32) {

@@ -122,15 +122,10 @@ fn profiled(
     let Some(std) = certainty.std.filter(|_| certainty.pinned) else {
         return false;
     };
-    let Some((k, free)) = space
-        .free()
-        .iter()
-        .enumerate()
-        .find(|(_, f)| f.id == certainty.id)
-    else {
+    let Some(k) = space.position(certainty.id) else {
         return false;
     };
-    let natural = f64::from(std) / free.natural_scale(certainty.value);
+    let natural = f64::from(std) / space.free()[k].natural_scale(certainty.value);
     natural > CURVED_STD
         || id
             .unpinned
@@ -268,14 +263,10 @@ pub fn widen(
         let Some(std) = certainty.std else {
             continue;
         };
-        let Some((k, free)) = space
-            .free()
-            .iter()
-            .enumerate()
-            .find(|(_, f)| f.id == certainty.id)
-        else {
+        let Some(k) = space.position(certainty.id) else {
             continue;
         };
+        let free = &space.free()[k];
         let (lo, hi) = (free.lo, free.hi);
         let line = lines[k];
         if farthest[k] > STEPS * f64::from(std) {
@@ -384,7 +375,7 @@ fn profile_start(
     line: &[f32; MAX_FREE],
 ) -> Option<(Space, [f32; MAX_FREE])> {
     let free = space.free();
-    let k = free.iter().position(|f| f.id == id)?;
+    let k = space.position(id)?;
     let mut u = space.unit(at);
     // The held parameter's step in natural units, and each other's along the line, in
     // unit coordinates (linear in them for a log scale).

@@ -2,11 +2,7 @@
 
 use super::walk::came_back;
 use super::*;
-use crate::fit::identifiability::analyse;
-use crate::fit::identify::identify;
-use crate::fit::pipeline::IdentifyConfig;
-use crate::fit::space::ProblemSpec;
-use crate::testkit::Owned;
+use crate::testkit::{Fitted, Owned};
 
 #[test]
 fn a_profile_starts_at_the_local_minimum_of_the_others() {
@@ -16,29 +12,16 @@ fn a_profile_starts_at_the_local_minimum_of_the_others() {
     // the others unmoved, the refit of a correlated one gains many.
     let data = Owned::paper_motor_noisy_steps(11);
     let rec = [data.record(true, false)];
-    let spec = ProblemSpec::default();
-    let cfg = IdentifyConfig::default_pipeline(1);
-    let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
-    let objective = Objective::new(&rec).unwrap();
-    let space = Space::new(&spec, cfg.log_scale).unwrap();
-    let sigma2 = fit.cost.sse / (fit.cost.residuals as f64 - space.dim() as f64);
-    let mut lines: ProfileLines = Default::default();
-    let u = space.unit(&fit.params);
-    analyse(
-        &objective,
-        &space,
-        &u[..space.dim()],
-        &fit.cost,
-        false,
-        &mut lines,
-    )
-    .unwrap();
+    let fitted = Fitted::of(&rec, 1);
+    let (fit, objective, space) = (&fitted.fit, &fitted.objective, &fitted.space);
+    let sigma2 = fitted.sigma2();
+    let (_, lines) = fitted.analysis();
     let lm = stopping_at(&LmConfig::default(), 0.01, sigma2);
     let gain = |profile: &Space, start: &[f32; MAX_FREE]| {
         let from = objective
             .cost(&profile.params(&start[..profile.dim()]))
             .unwrap();
-        let r = levenberg_marquardt(&objective, profile, start, &lm, &mut |_| {
+        let r = levenberg_marquardt(objective, profile, start, &lm, &mut |_| {
             ControlFlow::Continue(())
         })
         .unwrap();
@@ -48,7 +31,7 @@ fn a_profile_starts_at_the_local_minimum_of_the_others() {
     for (k, c) in fit.identifiability.params.iter().enumerate() {
         let value = c.value + 3.0 * c.std.expect("pinned");
         let line = lines[k];
-        let (profile, start) = profile_start(&space, &fit.params, c.id, value, &line).unwrap();
+        let (profile, start) = profile_start(space, &fit.params, c.id, value, &line).unwrap();
         let on_line = gain(&profile, &start);
         assert!(on_line < 1.0, "{:?}: {on_line} from its line", c.id);
         let unmoved = space.fixing(&fit.params, c.id, value).unwrap();
@@ -77,11 +60,8 @@ fn a_descent_ends_where_it_came_back_and_the_check_goes_on() {
     // next run still starts.
     let data = Owned::paper_motor_noisy_steps(11);
     let rec = [data.record(true, false)];
-    let spec = ProblemSpec::default();
-    let cfg = IdentifyConfig::default_pipeline(1);
-    let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
-    let objective = Objective::new(&rec).unwrap();
-    let space = Space::new(&spec, cfg.log_scale).unwrap();
+    let fitted = Fitted::of(&rec, 1);
+    let (fit, objective, space) = (&fitted.fit, &fitted.objective, &fitted.space);
     let dim = space.dim();
     let u0 = space.unit(&fit.params);
     let k = space
@@ -99,17 +79,17 @@ fn a_descent_ends_where_it_came_back_and_the_check_goes_on() {
         stopped: false,
     };
     let back = |u: &[f32]| came_back(&u0[..dim], &start[..dim], u);
-    let full = runs.refine(&objective, &space, &start[..dim], &lm, &|_| false);
+    let full = runs.refine(objective, space, &start[..dim], &lm, &|_| false);
     let full = full.unwrap();
     assert!(back(&full.u[..dim]), "{:?}", &full.u[..dim]);
-    let ended = runs.refine(&objective, &space, &start[..dim], &lm, &back);
+    let ended = runs.refine(objective, space, &start[..dim], &lm, &back);
     let ended = ended.unwrap();
     assert!(back(&ended.u[..dim]));
     assert!(ended.evaluations < full.evaluations, "{ended:?} {full:?}");
     assert!(ended.cost.sse > full.cost.sse);
     assert_eq!(runs.spent, full.evaluations + ended.evaluations);
     assert!(runs
-        .refine(&objective, &space, &start[..dim], &lm, &back)
+        .refine(objective, space, &start[..dim], &lm, &back)
         .is_some());
 }
 
@@ -121,12 +101,9 @@ fn a_refit_ends_once_the_level_it_needs_is_out_of_reach_and_not_before() {
     // a level it can reach (the full space from the same start), it goes on to it.
     let data = Owned::paper_motor_noisy_steps(11);
     let rec = [data.record(true, false)];
-    let spec = ProblemSpec::default();
-    let cfg = IdentifyConfig::default_pipeline(1);
-    let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
-    let objective = Objective::new(&rec).unwrap();
-    let space = Space::new(&spec, cfg.log_scale).unwrap();
-    let sigma2 = fit.cost.sse / (fit.cost.residuals as f64 - space.dim() as f64);
+    let fitted = Fitted::of(&rec, 1);
+    let (fit, objective, space) = (&fitted.fit, &fitted.objective, &fitted.space);
+    let sigma2 = fitted.sigma2();
     let ra = fit.identifiability.params[0];
     assert_eq!(ra.id, ParamId::Ra);
     let held = ra.value + 20.0 * ra.std.expect("pinned");
@@ -137,7 +114,7 @@ fn a_refit_ends_once_the_level_it_needs_is_out_of_reach_and_not_before() {
             needed_below,
             ..stopping_at(&LmConfig::default(), PROFILE_TOL, sigma2)
         };
-        levenberg_marquardt(&objective, space, start, &lm, &mut |_| {
+        levenberg_marquardt(objective, space, start, &lm, &mut |_| {
             ControlFlow::Continue(())
         })
         .unwrap()
@@ -152,7 +129,7 @@ fn a_refit_ends_once_the_level_it_needs_is_out_of_reach_and_not_before() {
     // The whole space from the same start: the optimum's level is within reach.
     let mut from = space.unit(&fit.params);
     from[0] = space.unit(&fit.params.with(ParamId::Ra, held))[0];
-    let reached = refit(&space, &from[..space.dim()], level);
+    let reached = refit(space, &from[..space.dim()], level);
     assert!(reached.cost.sse < level, "{reached:?}");
 }
 
@@ -169,25 +146,12 @@ fn a_profile_that_stays_within_a_loose_deviation_would_not_widen_its_parameter()
     };
     let data = Owned::paper_motor(crate::model::profile::Profile::Start, 0.01, 2000, noise, 3);
     let rec = [data.record(true, false)];
-    let spec = ProblemSpec::default();
-    let cfg = IdentifyConfig::default_pipeline(2);
-    let fit = identify(&rec, &spec, &cfg, |_| ControlFlow::Continue(())).unwrap();
-    let objective = Objective::new(&rec).unwrap();
-    let space = Space::new(&spec, cfg.log_scale).unwrap();
-    let mut lines: ProfileLines = Default::default();
-    let u = space.unit(&fit.params);
-    let id = analyse(
-        &objective,
-        &space,
-        &u[..space.dim()],
-        &fit.cost,
-        false,
-        &mut lines,
-    )
-    .unwrap();
+    let fitted = Fitted::of(&rec, 2);
+    let (fit, objective, space) = (&fitted.fit, &fitted.objective, &fitted.space);
+    let (id, lines) = fitted.analysis();
     assert!(!id.unpinned.is_empty(), "{id:?}");
     assert!(id.unpinned.iter().all(|d| d.std.is_finite()), "{id:?}");
-    let sigma2 = fit.cost.sse / (fit.cost.residuals as f64 - space.dim() as f64);
+    let sigma2 = fitted.sigma2();
     let lm = stopping_at(&LmConfig::default(), PROFILE_TOL, sigma2);
     let mut progress = |_| ControlFlow::Continue(());
     let mut runs = Runs {
@@ -200,7 +164,7 @@ fn a_profile_that_stays_within_a_loose_deviation_would_not_widen_its_parameter()
         let Some(std) = c.std.filter(|_| c.pinned) else {
             continue;
         };
-        if profiled(&id, &space, &lines, c) {
+        if profiled(&id, space, &lines, c) {
             profiled_ones += 1;
             continue;
         }
@@ -208,8 +172,8 @@ fn a_profile_that_stays_within_a_loose_deviation_would_not_widen_its_parameter()
         for side in [-1.0f32, 1.0] {
             let value = f64::from(c.value + side * STEPS as f32 * std);
             let rise = profile_rise(
-                &objective,
-                &space,
+                objective,
+                space,
                 &fit.params,
                 c.id,
                 value,

@@ -226,6 +226,12 @@ impl Space {
         &self.free
     }
 
+    /// The place of parameter `id` among [`Space::free`] (its unit coordinate's index);
+    /// None when it is not free.
+    pub fn position(&self, id: ParamId) -> Option<usize> {
+        self.free.iter().position(|f| f.id == id)
+    }
+
     /// Parameter set at unit coordinates `u` (length [`Space::dim`]).
     pub fn params(&self, u: &[f32]) -> ModelParams {
         let mut p = self.base;

@@ -49,7 +49,7 @@ const SCALES: [bool; PARAM_COUNT] = {
 /// are all free.
 fn direction(space: &Space, u: &[f32]) -> Option<(usize, [f32; MAX_FREE])> {
     let free = space.free();
-    let slot = |id: ParamId| free.iter().position(|f| f.id == id);
+    let slot = |id: ParamId| space.position(id);
     let (_, _, kv) = (slot(ParamId::J)?, slot(ParamId::B)?, slot(ParamId::Kv)?);
     // d u / d ln(scale) per coordinate: 1 / ln(hi/lo) on a log scale, p / (hi - lo) on a
     // linear one.
