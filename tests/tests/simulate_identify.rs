@@ -494,3 +494,59 @@ fn tune_warns_when_its_gains_rest_on_parameters_the_data_did_not_pin() {
         }
     }
 }
+
+/// A tacho delay of 0.7 sample at 10 kHz beside the current: the delay's own direction holds
+/// 4e-9 of the information of the current channel's strongest, under a numerical floor set
+/// by the strongest (1e-8 of it), which called it flat; its own column resolves it, and the
+/// fit knows it to 3 % (`fit::identifiability`, docs/measurements/blind-checks.md).
+#[test]
+fn a_sub_sample_delay_at_10_khz_is_pinned_beside_the_current() {
+    let dir = tempfile::tempdir().unwrap();
+    let td = 7e-5;
+    let mut files = Vec::new();
+    for profile in ["steps", "reversal"] {
+        let csv = dir.path().join(format!("{profile}.csv"));
+        run_ok(&[
+            "simulate",
+            "--motor",
+            "ra=1,la=0.02,j=0.002,b=0.001,kv=0.08",
+            "--profile",
+            profile,
+            "--effect",
+            "sensor_delay:td=7e-5",
+            "--noise-omega",
+            "0.05",
+            "--noise-current",
+            "0.05",
+            "--rate",
+            "10000",
+            "--duration",
+            "1.5",
+            "--voltage",
+            "24",
+            "--seed",
+            "3",
+            "--out",
+            s(&csv),
+            "-q",
+        ]);
+        files.push(csv);
+    }
+    let report = dir.path().join("r.json");
+    run_ok(&[
+        "identify",
+        s(&files[0]),
+        s(&files[1]),
+        "--bounds",
+        "td=0:0.002",
+        "--json",
+        s(&report),
+        "-q",
+    ]);
+    let r = json(&report);
+    let std = r["identifiability"]["parameters"]["td"]["std"].as_f64();
+    let std = std.unwrap_or_else(|| panic!("td not pinned: {}", r["identifiability"]));
+    let est = param(&r, "td");
+    assert!(std < 0.05 * td, "td std {std}");
+    assert!((est - td).abs() < 4.0 * std, "td {est} vs {td}, std {std}");
+}
