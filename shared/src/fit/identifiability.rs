@@ -13,8 +13,8 @@
 //! negative eigenvalue, which exact arithmetic would make non-negative, and at least 1e-8 of
 //! the largest, or 1e-5 of the information of the columns the direction combines, the
 //! diagonal of `F` along it, when that is lower: a direction of small columns, not a
-//! cancellation of large ones). A parameter or combination gets the delta-method standard deviation over the
-//! directions above the floor plus, along each numerically flat direction, the spread of a
+//! cancellation of large ones). A parameter or combination gets the delta-method standard
+//! deviation over the directions above the floor plus, along each numerically flat direction, the spread of a
 //! uniform distribution over the part of that line inside the bounds (the data cannot say
 //! where on it the truth lies; the bounds can). It is pinned when that is at most
 //! [`PINNED_STD`] and its gradient has no more than a 1 % component along flat directions.
@@ -61,8 +61,9 @@ const FLAT_SHARE: f64 = 1e-4;
 const NUMERICAL_MARGIN: f64 = 10.0;
 /// The numerical floor of a direction's eigenvalue, as a share of the largest eigenvalue.
 const LARGEST_SHARE: f64 = 1e-9;
-/// ... and as a share of the information of the columns the direction combines, when that
-/// is lower (a direction of small columns, not a cancellation of large ones).
+/// The numerical floor of a direction's eigenvalue, as a share of the information of the
+/// columns the direction combines, where that is lower than [`LARGEST_SHARE`]'s (a
+/// direction of small columns, not a cancellation of large ones).
 const OWN_SHARE: f64 = 1e-6;
 /// Finite-difference step (unit coordinates) of the central-difference Jacobian.
 const STEP: f32 = 1e-3;
@@ -250,13 +251,14 @@ fn interpret(
     // along it, is far above what their rounding leaves) stands clear of it: a tacho delay
     // of 0.7 sample at 10 kHz, its direction the delay alone and known to 3 %, sat at 4e-9
     // of the current channel's largest eigenvalue and was called flat.
-    let negative = (-vals[0]).max(0.0);
+    let most_negative = (-vals[0]).max(0.0);
     let largest = vals[dim - 1].max(0.0);
     let floors: [f64; MAX_FREE] = core::array::from_fn(|k| {
-        let own: f64 = (0..dim)
+        let own_information: f64 = (0..dim)
             .map(|i| vecs[i][k] * vecs[i][k] * fisher[i][i])
             .sum();
-        NUMERICAL_MARGIN * negative.max((LARGEST_SHARE * largest).min(OWN_SHARE * own))
+        let share = (LARGEST_SHARE * largest).min(OWN_SHARE * own_information);
+        NUMERICAL_MARGIN * most_negative.max(share)
     });
     let above_floor = |k: usize| vals[k] > floors[k];
     let std_of = |k: usize| {

@@ -38,8 +38,8 @@ fn analysed(fisher: [[f64; 2]; 2]) -> Identifiability {
 
 #[test]
 fn a_direction_of_small_columns_is_informed_however_large_the_others() {
-    // La alone, known to 3.2 % (information 1e3), beside an Ra a billion times better
-    // known: 1e-9 of the largest eigenvalue, under a floor of 1e-8 of it, and called flat
+    // La alone, known to 3.2 % (information 1e3), beside an Ra with a billion times the
+    // information: 1e-9 of the largest eigenvalue, under a floor of 1e-8 of it, and called flat
     // by it; its own column is resolved far better than that.
     let a = analysed([[1e12, 0.0], [0.0, 1e3]]);
     let la = a.params.iter().find(|q| q.id == ParamId::La).unwrap();

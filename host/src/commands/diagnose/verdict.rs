@@ -30,7 +30,7 @@ const EXCESS_SHARE: f32 = 0.1;
 /// to 1.4 % and that took the held-out misfit from 1.18 to 1.00 times the noise: on a
 /// quiet tacho, 0.05 rad/s on 134 rad/s RMS, that floor was half the noise;
 /// docs/measurements/blind-checks.md.)
-const SIGNAL_DROP: f32 = 2e-5;
+const REMOVED_SHARE_OF_SIGNAL: f32 = 2e-5;
 
 /// What the rule needs of a fitted model.
 pub struct Candidate {
@@ -87,12 +87,13 @@ pub fn significant(reference: &Candidate, candidate: &Candidate, holdout: &Holdo
 /// held-out records better than one at `before` by at least 2 %, by 10 % of the misfit
 /// above the noise and by more than numerics. What tells two models of different forms
 /// apart ([`super::found::LookAlike`]): on the training records each fits its own way, and
-/// the prediction judges them.
+/// the prediction judges them, and the same floors hold there.
 pub fn predicts_better(before: f32, after: f32, holdout: &Holdout) -> bool {
     let excess = (before * before - holdout.noise * holdout.noise).max(0.0);
+    let removed = before * before - after * after;
     after <= (1.0 - HOLDOUT_DROP) * before
-        && before * before - after * after >= (SIGNAL_DROP * holdout.signal_rms).powi(2)
-        && before * before - after * after >= EXCESS_SHARE * excess
+        && removed >= (REMOVED_SHARE_OF_SIGNAL * holdout.signal_rms).powi(2)
+        && removed >= EXCESS_SHARE * excess
 }
 
 #[cfg(test)]
