@@ -160,14 +160,14 @@ pub fn applies(id: &Identifiability, space: &Space, lines: &ProfileLines) -> boo
 }
 
 /// Most least-squares runs the check of `id` makes: the walk's (both ways along each flat
-/// direction, from each of [`WALK`]) and two profiles per profiled parameter.
+/// direction, from each of [`WALK`] and nearer, [`walk::NEAR`]) and two profiles per profiled parameter.
 pub fn runs(id: &Identifiability, space: &Space, lines: &ProfileLines) -> u32 {
     let profiles = id
         .params
         .iter()
         .filter(|c| profiled(id, space, lines, c))
         .count();
-    (id.unpinned.len() * 2 * WALK.len() + 2 * profiles) as u32
+    (id.unpinned.len() * 2 * (WALK.len() + 1) + 2 * profiles) as u32
 }
 
 /// The check's least-squares runs, one after another: the evaluations they spent and the

@@ -1,6 +1,6 @@
 //! Tests of the profile check (`fit::profile_check`).
 
-use super::walk::came_back;
+use super::walk::{came_back, starts, NEAR};
 use super::*;
 use crate::testkit::{Fitted, Owned};
 
@@ -39,6 +39,16 @@ fn a_profile_starts_at_the_local_minimum_of_the_others() {
     }
     let most = unmoved_gains.iter().copied().fold(0.0, f64::max);
     assert!(most > 10.0, "{unmoved_gains:?}");
+}
+
+#[test]
+fn the_walk_starts_nearer_only_along_an_informed_direction_whose_deviations_allow() {
+    let collected = |std: f32, edge: f32| starts(std, edge).collect::<std::vec::Vec<_>>();
+    // A loose direction whose edge lies 100 deviations away: first 10 of them out.
+    assert_eq!(collected(0.01, 1.0), [NEAR * 0.01, 0.5, 1.0]);
+    // Half way to the edge is nearer than 10 deviations: half way first, as along a flat one.
+    assert_eq!(collected(0.2, 1.0), [0.5, 1.0]);
+    assert_eq!(collected(f32::INFINITY, 1.0), [0.5, 1.0]);
 }
 
 #[test]

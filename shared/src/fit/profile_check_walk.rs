@@ -19,6 +19,13 @@ pub(super) const VALLEY_FIT: f64 = 1.0;
 /// Fractions of the way to the box's edge the valley walk starts from, nearest first: a
 /// start whose descent ends off the valley ends the walk along that way.
 pub(super) const WALK: [f32; 2] = [0.5, 1.0];
+/// Along a direction the data informs (loosely), the walk starts first this many of its
+/// local deviations out, where that is nearer than the first of [`WALK`]: the local
+/// quadratic puts the cost there 100 residual variances up. Where the valley is a bowl, the
+/// descent from there comes back (and ends the walk that way) in a step or two, where one
+/// from half way to the box's edge crawled back down a wall; where it bends, the descent
+/// lands on it away from the optimum, and the walk goes on from [`WALK`].
+pub(super) const NEAR: f32 = 10.0;
 
 /// A descent of the walk that lands nearer the optimum than this share of its start's
 /// distance from it (in unit coordinates) came back: the valley holds no equal fit that
@@ -30,6 +37,15 @@ pub(super) const WALK: [f32; 2] = [0.5, 1.0];
 /// its local deviation; the descents from the edge had cost a third of the check's
 /// 310-400 simulations (docs/measurements/commissioning.md).
 pub(super) const CAME_BACK: f32 = 0.25;
+
+/// The walk's starts along a direction of deviation `std` whose box edge lies `edge` away
+/// (both in natural units along it), as fractions of the way to the edge: [`NEAR`]
+/// deviations first where that is nearer than the first of [`WALK`] (never along a
+/// numerically flat direction, `std` infinite), then [`WALK`].
+pub(super) fn starts(std: f32, edge: f32) -> impl Iterator<Item = f32> {
+    let near = NEAR * std / edge;
+    (near < WALK[0]).then_some(near).into_iter().chain(WALK)
+}
 
 /// Whether the descent from `start` that landed at `landed` came back to the optimum
 /// `u0` ([`CAME_BACK`]).
@@ -85,7 +101,7 @@ pub(super) fn walk_the_valley(
             if !edge.is_finite() || edge <= 0.0 {
                 continue;
             }
-            for fraction in WALK {
+            for fraction in starts(direction.std, edge) {
                 let mut start = [0.0f32; MAX_FREE];
                 for i in 0..dim {
                     start[i] = (u0[i] + sign * fraction * edge * du[i]).clamp(0.0, 1.0);
