@@ -57,10 +57,10 @@ fn tacho_noise() -> Option<f64> {
     std::env::var("BLIND_TACHO").ok()?.parse().ok()
 }
 
-/// The speed sensor of every record: the [`LINES`]-line encoder, or a tacho with
-/// [`tacho_noise`] (a reading whose error is white, not an encoder's count difference).
-fn speed_sensor() -> SpeedSensor {
-    match tacho_noise() {
+/// The speed sensor of every record: the [`LINES`]-line encoder, or a tacho with white
+/// noise `tacho` (a reading whose error is white, not an encoder's count difference).
+fn speed_sensor(tacho: Option<f64>) -> SpeedSensor {
+    match tacho {
         Some(_) => SpeedSensor::Tacho,
         None => SpeedSensor::Encoder { lines: LINES },
     }
@@ -218,6 +218,19 @@ pub fn check_without(
     seed: u64,
     without: &[&str],
 ) -> Outcome {
+    check_read_by(dir, names, rate, seed, without, tacho_noise())
+}
+
+/// [`check_without`] with the speed read by a tacho of white noise `tacho` [rad/s], or
+/// by the encoder (`None`), whatever the environment says.
+pub fn check_read_by(
+    dir: &Path,
+    names: &[&str],
+    rate: f64,
+    seed: u64,
+    without: &[&str],
+    tacho: Option<f64>,
+) -> Outcome {
     let mut g = Gaussian::new(seed * 7919 + rate as u64);
     let m = motor(&mut g);
     let mut e = effects(names, &m, rate, &mut g);
@@ -248,8 +261,8 @@ pub fn check_without(
     let mut noise = Vec::new();
     for (k, (name, shape, length)) in shapes.into_iter().enumerate() {
         let sensors = Sensors {
-            speed: speed_sensor(),
-            noise_omega: tacho_noise().unwrap_or(0.0),
+            speed: speed_sensor(tacho),
+            noise_omega: tacho.unwrap_or(0.0),
             noise_current: NOISE_CURRENT,
             seed: seed * 100 + k as u64,
         };
@@ -284,7 +297,7 @@ pub fn check_without(
         .fold((0.0, 0.0), |(s, c), (rms, n)| (s + n * rms * rms, c + n));
     // A tacho's reading error holds its ripple and delay, which are effects, not noise:
     // there the noise floor's truth is the tacho's white noise.
-    let truth = tacho_noise().unwrap_or((sum / count).sqrt());
+    let truth = tacho.unwrap_or((sum / count).sqrt());
     Outcome {
         named,
         unexplained: v["unexplained"].as_bool().expect("verdict.unexplained"),

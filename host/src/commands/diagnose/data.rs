@@ -2,7 +2,7 @@
 //! records with the quantities measured on them, a fitted model scored on both sets, and the
 //! conclusions the records cannot support.
 
-use super::verdict::Candidate;
+use super::verdict::{Candidate, HeldOut};
 use crate::csvio::OwnedRecord;
 use crate::fit::Fit;
 use anyhow::{anyhow, Result};
@@ -318,11 +318,23 @@ impl Scored {
     pub fn candidate(&self, effect: Effect, scales: &Scales) -> Candidate {
         let too_short = effect == Effect::SensorDelay
             && self.fit.result.params.get(ParamId::Td) < 0.5 * scales.dt;
-        Candidate::of(&self.fit, self.holdout_joint, effect.params().len()).unresolvable(too_short)
+        let spec = effect.spec();
+        let acts_on = (spec.acts_on_speed(), spec.acts_on_current());
+        Candidate::of(&self.fit, self.held_out(), effect.params().len(), acts_on)
+            .unresolvable(too_short)
+    }
+
+    /// Its held-out misfit, joint and each channel's.
+    fn held_out(&self) -> HeldOut {
+        HeldOut {
+            joint: self.holdout_joint,
+            speed: self.holdout_rmse,
+            current: self.holdout_rmse_current,
+        }
     }
 
     /// The significance rule's view of this fit as the reference others add an effect to.
     pub fn reference(&self) -> Candidate {
-        Candidate::of(&self.fit, self.holdout_joint, 0)
+        Candidate::of(&self.fit, self.held_out(), 0, (false, false))
     }
 }
