@@ -167,7 +167,12 @@ pub fn runs(id: &Identifiability, space: &Space, lines: &ProfileLines) -> u32 {
         .iter()
         .filter(|c| profiled(id, space, lines, c))
         .count();
-    (id.unpinned.len() * 2 * (WALK.len() + 1) + 2 * profiles) as u32
+    let walks: usize = id
+        .unpinned
+        .iter()
+        .map(|d| 2 * (WALK.len() + usize::from(d.std.is_finite())))
+        .sum();
+    (walks + 2 * profiles) as u32
 }
 
 /// The check's least-squares runs, one after another: the evaluations they spent and the

@@ -1,6 +1,6 @@
 //! Tests of the profile check (`fit::profile_check`).
 
-use super::walk::{came_back, starts, NEAR};
+use super::walk::{came_back, starts};
 use super::*;
 use crate::testkit::{Fitted, Owned};
 
@@ -44,10 +44,13 @@ fn a_profile_starts_at_the_local_minimum_of_the_others() {
 #[test]
 fn the_walk_starts_nearer_only_along_an_informed_direction_whose_deviations_allow() {
     let collected = |std: f32, edge: f32| starts(std, edge).collect::<std::vec::Vec<_>>();
-    // A loose direction whose edge lies 100 deviations away: first 10 of them out.
-    assert_eq!(collected(0.01, 1.0), [NEAR * 0.01, 0.5, 1.0]);
+    // A loose direction of deviation 1/16 whose edge lies 2 away (32 deviations): first
+    // 10 of them out, 0.3125 of the way; with the edge 8 away, 0.078125 of it (sums of
+    // powers of two, exact in f32).
+    assert_eq!(collected(0.0625, 2.0), [0.3125, 0.5, 1.0]);
+    assert_eq!(collected(0.0625, 8.0), [0.078125, 0.5, 1.0]);
     // Half way to the edge is nearer than 10 deviations: half way first, as along a flat one.
-    assert_eq!(collected(0.2, 1.0), [0.5, 1.0]);
+    assert_eq!(collected(0.0625, 1.0), [0.5, 1.0]);
     assert_eq!(collected(f32::INFINITY, 1.0), [0.5, 1.0]);
 }
 
