@@ -23,7 +23,7 @@
 //! `target/release/motor-id` (a copy keeps an hour-long run apart from rebuilds).
 
 use motor_id_tests::blind::{
-    check, check_without, components, entry, label, OLDER, SINGLES, WITHHELD,
+    check_without, components, entry, label, tacho_noise, OLDER, SINGLES, WITHHELD,
 };
 use motor_id_tests::partial_stand_ins;
 use std::collections::BTreeSet;
@@ -99,7 +99,8 @@ fn main() {
                     std::fs::create_dir_all(&d).expect("BLIND_KEEP folder");
                     d
                 });
-                let o = check(kept.as_deref().unwrap_or(dir.path()), case, rate, seed);
+                let at = kept.as_deref().unwrap_or(dir.path());
+                let o = check_without(at, case, rate, seed, &[], tacho_noise());
                 let ok = o.named == expected;
                 eprintln!(
                     "{} @ {rate} Hz seed {seed}: named {:?}{} unexplained {} noise x{:.2} ({:.1} s)",
@@ -176,6 +177,7 @@ fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
                     rate,
                     seed,
                     &[left],
+                    tacho_noise(),
                 );
                 let wrong = !o.named.is_subset(&allowed);
                 let stand_ins: Vec<String> = partial_stand_ins(&o.verdict)

@@ -175,7 +175,8 @@ fn a_stand_in_only_when_left_out(
     why: &str,
 ) {
     let dir = tempfile::tempdir().unwrap();
-    let o = motor_id_tests::blind::check_without(dir.path(), &[effect], rate, seed, &[left_out]);
+    let o =
+        motor_id_tests::blind::check_without(dir.path(), &[effect], rate, seed, &[left_out], None);
     assert!(o.named.is_empty(), "{:?}", o.named);
     assert!(o.unexplained);
     let partial = motor_id_tests::partial_stand_ins(&o.verdict);
@@ -551,7 +552,7 @@ fn a_quiet_tachos_delay_of_half_a_sample_is_named_at_5_and_10_khz() {
     // channel it acts on (three of the blind harness' cases, none of them named before).
     for (rate, seed) in [(5000.0, 1), (10000.0, 1), (10000.0, 2)] {
         let dir = tempfile::tempdir().unwrap();
-        let o = motor_id_tests::blind::check_read_by(
+        let o = motor_id_tests::blind::check_without(
             dir.path(),
             &["delay"],
             rate,

@@ -159,8 +159,9 @@ pub fn applies(id: &Identifiability, space: &Space, lines: &ProfileLines) -> boo
     id.params.iter().any(|c| profiled(id, space, lines, c))
 }
 
-/// Most least-squares runs the check of `id` makes: the walk's (both ways along each flat
-/// direction, from each of [`WALK`] and nearer, [`walk::NEAR`]) and two profiles per profiled parameter.
+/// Most least-squares runs the check of `id` makes: the walk's (both ways along each
+/// direction not pinned, from each of [`WALK`], and along a loose one from nearer first,
+/// [`walk::NEAR`]) and two profiles per profiled parameter.
 pub fn runs(id: &Identifiability, space: &Space, lines: &ProfileLines) -> u32 {
     let profiles = id
         .params

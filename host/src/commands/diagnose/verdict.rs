@@ -25,10 +25,9 @@
 //! of half a sample to one at 5-10 kHz, the acceleration times 0.05-0.2 ms, is a fraction
 //! of the noise on all but a few hundred samples of each edge: it takes the speed's
 //! held-out misfit from about 1.008 to 1.002 times the noise, a 0.6 % fall that the 2 %
-//! missed. A proxy
-//! shaves a little of a channel's misfit and leaves the rest: judged on the joint misfit
-//! instead of each channel's, a current offset was named for an untold cogging whose speed
-//! sat under its noise estimate (docs/measurements/blind-checks.md).
+//! missed. A proxy shaves a little of a channel's misfit and leaves the rest: judged on the
+//! joint misfit instead of each channel's, a current offset was named for an untold
+//! cogging whose speed sat under its noise estimate (docs/measurements/blind-checks.md).
 
 use crate::fit::Fit;
 
