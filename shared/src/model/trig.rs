@@ -2,35 +2,45 @@
 //! without libm's argument reduction on a board: neither on its deepest call's stack nor in
 //! its flash.
 
-/// `(cos x, sin x)` for `x >= 0`: `x` brought within π/4 by the nearest multiple `n` of
-/// π/2 (π/2 in two parts, its first 33 bits and the rest, so that `n` times the first is exact
-/// for `n < 2^20`), where the polynomials of [`kernel_cos`] and [`kernel_sin`] hold, then
-/// turned by `n` quarter turns. Below `1.5e6` the result is libm's to the bit within π/4
-/// (libm evaluates the same polynomials there) and within a few ulp beyond; above, the
-/// product `n` times the first part is rounded, and the phase is off by up to `x 2^-53` rad
+/// `(cos x, sin x)` for `x >= 0`: `x` brought within π/4 ([`reduce`]), where the
+/// polynomials of [`kernel_cos`] and [`kernel_sin`] hold, then turned by `n` quarter turns.
+/// Below `1.5e6` rad (every argument the benchmarks, the blind checks and the lab reach) the
+/// result is the one libm's `cos` and `sin` of the same remainder gave, to the bit (libm
+/// evaluates the same polynomials there); above, the phase is off by up to `x 2^-53` rad
 /// (1e-7 rad at 1e9 rad a step, a mode that has long decayed within the step of any
-/// record). libm's own exact reduction (`rem_pio2`, with its large-argument tables) held 832
-/// bytes of a board's stack at the bottom of its deepest call and, with the `cos` and `sin`
-/// around it, 4.9 KB of its flash (docs/measurements/footprint.md). NaN from `2^40` (1.1e12
-/// rad a step) on, where the phase would be off by more than 1e-4 rad and the remainder
-/// would leave the polynomials' range: no motor's mode, and no phase worth taking.
+/// record). libm's own exact reduction (`rem_pio2`, with its large-argument tables), which
+/// backed the arguments beyond `1.5e6`, held 832 bytes of a board's stack at the bottom of
+/// its deepest call; without it and libm's `cos` and `sin`, the board's flash is 4.9 KB
+/// smaller in all (docs/measurements/footprint.md). NaN from `2^40` (1.1e12 rad a step) on,
+/// where the phase would be off by more than 1e-4 rad: no motor's mode (the seed paper's
+/// box reaches some 600 rad/s), and a simulation with such a mode fails
+/// ([`crate::model::discretise`] refuses coefficients that are not finite), where libm's
+/// exact phase had given it one.
 pub(crate) fn cos_sin(x: f64) -> (f64, f64) {
-    // π/2's first 33 bits (1.5707963267341256), and π/2 less those (6.0771005065061922e-11).
-    const PIO2_HI: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
-    const PIO2_LO: f64 = f64::from_bits(0x3DD0_B461_1A62_6331);
+    debug_assert!(x >= 0.0 || x.is_nan(), "cos_sin takes x >= 0, not {x}");
     const NO_PHASE: f64 = 1_099_511_627_776.0; // 2^40
     if x.is_nan() || x >= NO_PHASE {
         return (f64::NAN, f64::NAN);
     }
-    let n = libm::round(x * core::f64::consts::FRAC_2_PI);
-    let r = (x - n * PIO2_HI) - n * PIO2_LO;
+    let (n, r) = reduce(x);
     let (c, s) = (kernel_cos(r), kernel_sin(r));
-    match n as u64 % 4 {
+    match n % 4 {
         0 => (c, s),
         1 => (-s, c),
         2 => (-c, -s),
         _ => (s, -c),
     }
+}
+
+/// `x >= 0` as `n π/2 + r` with `n` the nearest multiple and `|r|` within π/4 (and its
+/// rounding): π/2 in two parts, its first 33 bits and the rest, so that `n` times the first
+/// is exact for `n < 2^20` (Cody and Waite); beyond, that product is rounded.
+fn reduce(x: f64) -> (u64, f64) {
+    // π/2's first 33 bits (1.5707963267341256), and π/2 less those (6.0771005065061922e-11).
+    const PIO2_HI: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
+    const PIO2_LO: f64 = f64::from_bits(0x3DD0_B461_1A62_6331);
+    let n = libm::round(x * core::f64::consts::FRAC_2_PI);
+    (n as u64, (x - n * PIO2_HI) - n * PIO2_LO)
 }
 
 /// The high word of `|x|`'s bits: what the kernels' small-argument thresholds compare.
@@ -89,7 +99,8 @@ mod tests {
     use super::*;
 
     /// A deterministic sweep of `[-π/4, π/4]`: every sign and exponent the reduction's
-    /// remainders take, the kernels' small-argument thresholds and their neighbours.
+    /// remainders take, and the arguments around the kernels' small-argument thresholds
+    /// (where `sin`'s matters; `cos`'s gives the polynomial's own value).
     fn eighth_turn() -> impl Iterator<Item = f64> {
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
         let mut draw = move || {
@@ -114,6 +125,21 @@ mod tests {
             .flat_map(|b| [b - 1, b, b + 1].map(f64::from_bits));
         let edges = [0.0, core::f64::consts::FRAC_PI_4, f64::MIN_POSITIVE, 1e-300];
         random.chain(thresholds).chain(edges).flat_map(|x| [x, -x])
+    }
+
+    #[test]
+    fn on_the_remainders_of_the_reduction_the_kernels_are_libms_to_the_bit() {
+        // What `cos_sin` evaluated before: libm's `cos` and `sin` of the remainder, which
+        // may lie just beyond π/4; arguments near odd multiples of π/4 among them.
+        for k in 0..200_000u32 {
+            let spread = 1.5e6 * (f64::from(k) / 200_000.0);
+            let odd_eighth = (2.0 * f64::from(k % 1000) + 1.0) * core::f64::consts::FRAC_PI_4;
+            for x in [spread, odd_eighth, f64::from_bits(odd_eighth.to_bits() + 1)] {
+                let (_, r) = reduce(x);
+                assert_eq!(kernel_cos(r).to_bits(), libm::cos(r).to_bits(), "cos {x}");
+                assert_eq!(kernel_sin(r).to_bits(), libm::sin(r).to_bits(), "sin {x}");
+            }
+        }
     }
 
     #[test]
