@@ -39,14 +39,15 @@ pub const SPEED_SHARE: f32 = 0.7;
 const STEP_CURRENT: f32 = 0.6;
 /// Points of a probe's traces.
 const TRACE: usize = 128;
-/// Share of the budget the mechanical step may take at most, while the shaft has not moved.
+/// Share of the budget the mechanical step may take at most (where the shaft has not moved
+/// by [`MOVING_BUDGET`]).
 const MECHANICAL_BUDGET: f32 = 0.3;
 /// Share of the budget the mechanical step takes at most once the shaft has moved: a slow
 /// motor's step, which does not settle within it, leaves the rest to the slow record (on
 /// the MCU table's motor 240, τm 104 s in a 60 s budget, the slow record 14.4 → 19.2 s and
 /// the commissioning fit 366.7 → 129.3 M instructions; docs/measurements/commissioning.md).
-/// A shaft barely moving within its noise is watched to [`MECHANICAL_BUDGET`] before it is
-/// refused for no motion, as before.
+/// A shaft not turning beyond its rest noise by then is watched to [`MECHANICAL_BUDGET`],
+/// as before (refused for no motion only if it never does).
 const MOVING_BUDGET: f32 = 0.2;
 /// Share of the budget kept for the experiment's records when the mechanical step starts.
 const RECORDS_BUDGET: f32 = 0.5;
@@ -72,8 +73,8 @@ pub struct Probed {
 }
 
 /// The four stages in turn; the current sensor's offset is subtracted from stage 1 on. The
-/// mechanical step takes at most [`MOVING_BUDGET`] of the budget once the shaft moves,
-/// [`MECHANICAL_BUDGET`] while it does not, and leaves [`RECORDS_BUDGET`] of it to the
+/// mechanical step takes at most [`MOVING_BUDGET`] of the budget where it has moved the
+/// shaft by then, else [`MECHANICAL_BUDGET`], and leaves [`RECORDS_BUDGET`] of it to the
 /// records.
 pub fn probe<D: Drive, L: Link, W: Watchdog>(bench: &mut Bench<D, L, W>) -> Result<Probed, JobEnd> {
     let budget = bench.limits.budget;
@@ -83,8 +84,8 @@ pub fn probe<D: Drive, L: Link, W: Watchdog>(bench: &mut Bench<D, L, W>) -> Resu
     let electrical = electrical_step(bench, &rest, &ramp)?;
     let floor = ramp.breakaway.unwrap_or(0.0);
     let most = (MECHANICAL_BUDGET * budget).min(bench.left() - RECORDS_BUDGET * budget);
-    let moving = (MOVING_BUDGET * budget).min(most);
-    let mechanical = mechanical_step(bench, &rest, &electrical, floor, (moving, most))?;
+    let once_moving = (MOVING_BUDGET * budget).min(most);
+    let mechanical = mechanical_step(bench, &rest, &electrical, floor, (once_moving, most))?;
     Ok(Probed {
         rest,
         ramp,
@@ -244,8 +245,10 @@ pub struct Mechanical {
 /// Stage 4: a voltage step at the largest voltage the current limit allows
 /// ([`STEP_CURRENT`] of it at standstill, by the stage-3 Ra), watched until the speed
 /// settles (it rose under 3 % over the last third of the step), reaches [`SPEED_SHARE`] of
-/// its limit, or its time passes: `seconds_moving` once the shaft has moved beyond its rest
-/// noise, `seconds` while it has not. A shaft that never turns is refused
+/// its limit, or its time passes: `seconds_moving` where the shaft has turned beyond its
+/// rest noise by then (its highest reading, as the refusal judges it: a shaft still
+/// coasting from the stages before counts), else `seconds`. A shaft that never turns is
+/// refused
 /// ([`Refusal::NoMotion`]). The bridge stays driven at the step's voltage at its end; the
 /// experiment waits for the shaft to stand still before its records.
 #[inline(never)]
@@ -267,7 +270,11 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
         let mut current = Trace::<TRACE>::new();
         let (mut k, mut guarded, mut settled) = (0u32, false, false);
         let (mut top, mut start) = (0.0f32, None);
-        while k < most && (k < most_moving || top <= moving) {
+        // The step's time: `most_moving` samples where the shaft has turned beyond its rest
+        // noise by then, else `most`, as before: a shaft the refusal below would call
+        // standing at `most_moving` is watched as long as it was.
+        let mut window = most_moving;
+        while k < window {
             let Some(s) = bench.guarded(Bridge::Drive(v), 1.0)? else {
                 guarded = true;
                 break;
@@ -279,6 +286,9 @@ pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
             top = top.max(s.omega);
             if s.omega >= SPEED_SHARE * limits.speed {
                 break;
+            }
+            if k == most_moving && top <= moving {
+                window = most;
             }
             if k >= 64 && k % 32 == 0 {
                 // The shaft may still turn from the stages before: the rise counts from
