@@ -180,6 +180,11 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
     /// Any motor in the Table 1 box, with any effects, at any rate from 100 Hz to 50 kHz,
     /// simulates to finite numbers (Euler/RK4 diverge for part of the box, `docs/ARCHITECTURE.md`).
+    /// Armature reaction within the flux loss the catalogue searches (half the flux at the
+    /// largest current, here the start current V / Ra): held at each step's start, a flux
+    /// loss near its floor of 90 % fed back through a step as long as La/Ra diverged (0.5
+    /// ohm, 10 mH, Kv 1.67 V s/rad at 100 Hz and 220 V, `kar` 0.064/A:
+    /// docs/GUIDE.md, known limits).
     #[test]
     fn every_motor_in_the_box_simulates_finite(
         ra in log_uniform(0.5, 10.0),
@@ -196,13 +201,16 @@ proptest! {
         ripple in prop_oneof![Just(0.0f32), 0.0f32..0.2],
         profile in prop_oneof![Just(Profile::Start), Just(Profile::Steps), Just(Profile::Load), Just(Profile::Reversal)],
     ) {
+        let exp_volts = 220.0f32;
+        // At most half the flux lost at the start current (the catalogue's search bound).
+        let kar = kar.min(0.5 * ra / exp_volts);
         let p = ModelParams::motor(ra, la, j, b, kv)
             .with(ParamId::Tc, tc).with(ParamId::Kq, kq).with(ParamId::Kar, kar)
             .with(ParamId::Vb, vb).with(ParamId::Td, td_frac * MAX_DELAY_SAMPLES as f32 / rate)
             .with(ParamId::RippleAmp, ripple).with(ParamId::RippleCycles, 4.0);
         let dt = 1.0 / rate;
         let n = 600;
-        let exp = Experiment { profile, voltage: 220.0, duration: n as f32 * dt, load_torque: 0.5 };
+        let exp = Experiment { profile, voltage: exp_volts, duration: n as f32 * dt, load_torque: 0.5 };
         let mut sim = Simulator::new(&p, dt, InitialState::REST).unwrap();
         for k in 0..n {
             let input = exp.at(k as f32 * dt);
