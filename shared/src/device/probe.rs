@@ -248,9 +248,8 @@ pub struct Mechanical {
 /// its limit, or its time passes: `seconds_moving` where the shaft has turned beyond its
 /// rest noise by then (its highest reading, as the refusal judges it: a shaft still
 /// coasting from the stages before counts), else `seconds`. A shaft that never turns is
-/// refused
-/// ([`Refusal::NoMotion`]). The bridge stays driven at the step's voltage at its end; the
-/// experiment waits for the shaft to stand still before its records.
+/// refused ([`Refusal::NoMotion`]). The bridge stays driven at the step's voltage at its
+/// end; the experiment waits for the shaft to stand still before its records.
 #[inline(never)]
 pub fn mechanical_step<D: Drive, L: Link, W: Watchdog>(
     bench: &mut Bench<D, L, W>,

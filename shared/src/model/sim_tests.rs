@@ -202,8 +202,9 @@ proptest! {
         profile in prop_oneof![Just(Profile::Start), Just(Profile::Steps), Just(Profile::Load), Just(Profile::Reversal)],
     ) {
         let exp_volts = 220.0f32;
-        // At most half the flux lost at the start current (the catalogue's search bound).
-        let kar = kar.min(0.5 * ra / exp_volts);
+        // The draw's 0-0.1 taken as 0 to half the flux lost at the start current V / Ra
+        // (the catalogue's search bound).
+        let kar = kar / 0.1 * 0.5 * ra / exp_volts;
         let p = ModelParams::motor(ra, la, j, b, kv)
             .with(ParamId::Tc, tc).with(ParamId::Kq, kq).with(ParamId::Kar, kar)
             .with(ParamId::Vb, vb).with(ParamId::Td, td_frac * MAX_DELAY_SAMPLES as f32 / rate)

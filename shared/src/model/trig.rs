@@ -43,6 +43,17 @@ fn reduce(x: f64) -> (u64, f64) {
     (n as u64, (x - n * PIO2_HI) - n * PIO2_LO)
 }
 
+/// A kernel's polynomial coefficients from their bits, as fdlibm gives them (exact).
+const fn coefficients(bits: [u64; 6]) -> [f64; 6] {
+    let mut c = [0.0; 6];
+    let mut k = 0;
+    while k < 6 {
+        c[k] = f64::from_bits(bits[k]);
+        k += 1;
+    }
+    c
+}
+
 /// The high word of `|x|`'s bits: what the kernels' small-argument thresholds compare.
 fn high_word(x: f64) -> u32 {
     ((x.to_bits() >> 32) as u32) & 0x7fff_ffff
@@ -54,14 +65,14 @@ fn high_word(x: f64) -> u32 {
 /// its rounding error is kept; exactly 1 below `2^-27 sqrt 2`, as libm.
 fn kernel_cos(x: f64) -> f64 {
     // 4.1667e-2, -1.3889e-3, 2.4802e-5, -2.7557e-7, 2.0876e-9, -1.1360e-11 (fdlibm's bits).
-    const C: [f64; 6] = [
-        f64::from_bits(0x3FA5_5555_5555_554C),
-        f64::from_bits(0xBF56_C16C_16C1_5177),
-        f64::from_bits(0x3EFA_01A0_19CB_1590),
-        f64::from_bits(0xBE92_7E4F_809C_52AD),
-        f64::from_bits(0x3E21_EE9E_BDB4_B1C4),
-        f64::from_bits(0xBDA8_FAE9_BE88_38D4),
-    ];
+    const C: [f64; 6] = coefficients([
+        0x3FA5_5555_5555_554C,
+        0xBF56_C16C_16C1_5177,
+        0x3EFA_01A0_19CB_1590,
+        0xBE92_7E4F_809C_52AD,
+        0x3E21_EE9E_BDB4_B1C4,
+        0xBDA8_FAE9_BE88_38D4,
+    ]);
     if high_word(x) < 0x3e46_a09e {
         return 1.0;
     }
@@ -77,14 +88,14 @@ fn kernel_cos(x: f64) -> f64 {
 /// [`kernel_cos`]), `x + x^3 (S1 + x^2 S2 + ... + x^10 S6)`; `x` itself below `2^-26`, as libm.
 fn kernel_sin(x: f64) -> f64 {
     // -1.6667e-1, 8.3333e-3, -1.9841e-4, 2.7557e-6, -2.5051e-8, 1.5897e-10 (fdlibm's bits).
-    const S: [f64; 6] = [
-        f64::from_bits(0xBFC5_5555_5555_5549),
-        f64::from_bits(0x3F81_1111_1110_F8A6),
-        f64::from_bits(0xBF2A_01A0_19C1_61D5),
-        f64::from_bits(0x3EC7_1DE3_57B1_FE7D),
-        f64::from_bits(0xBE5A_E5E6_8A2B_9CEB),
-        f64::from_bits(0x3DE5_D93A_5ACF_D57C),
-    ];
+    const S: [f64; 6] = coefficients([
+        0xBFC5_5555_5555_5549,
+        0x3F81_1111_1110_F8A6,
+        0xBF2A_01A0_19C1_61D5,
+        0x3EC7_1DE3_57B1_FE7D,
+        0xBE5A_E5E6_8A2B_9CEB,
+        0x3DE5_D93A_5ACF_D57C,
+    ]);
     if high_word(x) < 0x3e50_0000 {
         return x;
     }
