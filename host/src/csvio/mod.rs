@@ -317,6 +317,39 @@ mod tests {
         assert!(err.contains("shorter than half a sample"), "{err}");
     }
 
+    /// A record decimated in memory (the widened search's, `OwnedRecord::decimated`) is the
+    /// file read with `--decimate K`, value for value, with a coast-down too.
+    #[test]
+    fn a_record_decimated_in_memory_is_the_file_read_decimated() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut text = String::from("t,v,omega,i,tl,bridge\n");
+        for r in 0..200 {
+            let v = if r < 37 { 0.0 } else { 12.0 - 0.01 * r as f64 };
+            text += &format!(
+                "{},{v},{},{},{},{}\n",
+                r as f64 * 1e-3,
+                (r * r) % 17,
+                0.5 * r as f64,
+                0.001 * (r % 5) as f64,
+                u8::from(r < 150)
+            );
+        }
+        let whole = read_text(dir.path(), "m.csv", &text, &ReadOptions::default()).unwrap();
+        for k in [2usize, 3, 4] {
+            let read = read_text(dir.path(), "m.csv", &text, &decimate(k as u64)).unwrap();
+            let decimated = whole.decimated(k).expect("decimated");
+            assert_eq!(decimated.v, read.v, "K {k}");
+            assert_eq!(decimated.omega, read.omega, "K {k}");
+            assert_eq!(decimated.current, read.current, "K {k}");
+            assert_eq!(decimated.load, read.load, "K {k}");
+            assert_eq!(decimated.coast_from, read.coast_from, "K {k}");
+            assert!((decimated.t0 - read.t0).abs() < 1e-9, "K {k}");
+            assert!((decimated.dt - read.dt).abs() < 1e-9, "K {k}");
+        }
+        // Too few samples left: not decimated.
+        assert!(whole.decimated(50).is_none());
+    }
+
     /// A record beyond `--max-samples` is refused in one line with the decimation that
     /// fits it; the bound counts the samples of every record the reader has read.
     #[test]

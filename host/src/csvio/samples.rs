@@ -181,3 +181,48 @@ impl Samples {
         Ok(first)
     }
 }
+
+impl super::OwnedRecord {
+    /// This record with one sample per `k` of its own, decimated as `--decimate k` reads
+    /// a file (the module's doc): the readings the mean of each block, the inputs the mean
+    /// over the new step. `None` when fewer than `MIN_SAMPLES` samples would be left, a
+    /// coast-down would not survive the decimation, or the readings are means over each
+    /// step already (their means would be taken for readings at instants).
+    pub fn decimated(&self, k: usize) -> Option<super::OwnedRecord> {
+        if self.averaged > 1 {
+            return None;
+        }
+        let mut samples = Samples::new(k, self.current.is_some(), self.load.is_some());
+        for n in 0..self.omega.len() {
+            samples.push(&Row {
+                line: 0,
+                t: 0.0,
+                v: self.v[n],
+                omega: self.omega[n],
+                current: self.current.as_ref().map_or(0.0, |c| c[n]),
+                load: self.load.as_ref().map_or(0.0, |l| l[n]),
+                driven: self.coast_from.is_none_or(|c| n < c),
+                averaged: 1,
+            });
+        }
+        samples.finish();
+        if samples.len() < motor_id_shared::model::record::MIN_SAMPLES {
+            return None;
+        }
+        let coast_from = match self.coast_from {
+            Some(row) => Some(samples.coast_from(row).ok()?),
+            None => None,
+        };
+        Some(super::OwnedRecord {
+            path: self.path.clone(),
+            t0: self.t0 + (k - 1) as f64 / 2.0 * self.dt as f64,
+            dt: self.dt * k as f32,
+            v: samples.v,
+            omega: samples.omega,
+            current: samples.current,
+            load: samples.load,
+            coast_from,
+            averaged: self.averaged,
+        })
+    }
+}

@@ -116,15 +116,23 @@ pub fn fit_effect(
         let phase = (peak.phase - std::f64::consts::FRAC_PI_2).rem_euclid(std::f64::consts::TAU);
         start.set(ParamId::CogPhase, phase as f32);
     }
+    let alone = effects_alone(spec, &[effect], &start);
+    let first = fit_basin_from(&data.train, opts, &alone, &start)?;
+    refit_from(&data.train, opts, spec, &first.result.params)
+}
+
+/// `spec` with only the parameters of `effects` and of the entries they extend free,
+/// everything else held at `at`: the search of the effects' own basin.
+pub fn effects_alone(spec: &ProblemSpec, effects: &[Effect], at: &ModelParams) -> ProblemSpec {
     let mut alone = *spec;
-    alone.base = start;
-    let parent = effect.parent().map_or(&[][..], |p| p.params());
+    alone.base = *at;
     for id in ParamId::ALL {
-        let part = effect.params().contains(&id) || parent.contains(&id);
-        if !part && alone.free[id.index()] {
+        let part = effects.iter().any(|e| {
+            e.params().contains(&id) || e.parent().is_some_and(|p| p.params().contains(&id))
+        });
+        if !part {
             alone.free[id.index()] = false;
         }
     }
-    let first = fit_basin_from(&data.train, opts, &alone, &start)?;
-    refit_from(&data.train, opts, spec, &first.result.params)
+    alone
 }

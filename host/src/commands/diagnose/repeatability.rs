@@ -336,7 +336,7 @@ impl Repeats {
     }
 
     /// The report, with `after` the verdict's model for the held-out remainder.
-    pub fn report(self, data: &Data, after: &ModelParams) -> Result<Repeatability> {
+    pub fn report(&self, data: &Data, after: &ModelParams) -> Result<Repeatability> {
         let holdout = if self.held.is_empty() {
             None
         } else {
@@ -351,7 +351,7 @@ impl Repeats {
             })
         };
         Ok(Repeatability {
-            groups: self.groups,
+            groups: self.groups.clone(),
             method: METHOD,
             holdout,
         })

@@ -10,6 +10,7 @@ use super::regimes::WhereReport;
 use super::remainder::{floor, unexplained, Remainder};
 use super::repeatability::Repeatability;
 use super::stand_ins::Judged;
+use super::widening::WidenedRefit;
 use super::WhatIsLeft;
 use crate::report::identify::reported_params;
 use crate::report::{estimates, ByParam, Num};
@@ -117,6 +118,9 @@ pub struct Verdict {
     pub unexplained: bool,
     /// What is left, how large against the floor and where (`null` when explained).
     pub remainder: Option<Remainder>,
+    /// The final model's search, widened before what it leaves was judged (`null` when
+    /// it was not: no effect named, its fit at the noise, or the misfit explained).
+    pub widened: Option<WidenedRefit>,
     /// The current channel, when current is measured.
     pub current: Option<ChannelVerdict>,
 }
@@ -239,6 +243,7 @@ impl DiagnoseReport {
             remainder,
             current_where,
             where_it_acts,
+            widened,
         } = left;
         let baseline = &search.baseline;
         let holdout_noise = search.holdout.noise;
@@ -353,6 +358,7 @@ impl DiagnoseReport {
                 || !judged.loose.is_empty(),
             partial: judged.partial,
             remainder,
+            widened,
             current,
         };
         DiagnoseReport {

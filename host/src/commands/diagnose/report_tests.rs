@@ -64,6 +64,7 @@ fn report(second: Option<&'static str>) -> DiagnoseReport {
             repeatability_floor: None,
             unexplained: false,
             remainder: None,
+            widened: None,
             current: None,
         },
         where_: WhereReport {

@@ -68,6 +68,9 @@ impl DiagnoseReport {
                 p.why
             );
         }
+        if let Some(w) = &v.widened {
+            s += &format!("widened: {}\n", w.line());
+        }
         match &v.remainder {
             Some(r) => {
                 for line in &r.summary {

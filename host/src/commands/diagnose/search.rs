@@ -28,11 +28,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
             eprintln!("{msg}");
         }
     };
-    let quiet = FitOptions {
-        quiet: true,
-        speed_only: !data.with_current,
-        ..opts.clone()
-    };
+    let quiet = fit_options(data, opts);
     let spec = crate::spec::problem(&opts.bounds, &opts.fix)?;
     say("fitting the baseline model on the training records".into());
     let (baseline, round) = baseline_and_first_round(data, &quiet, &spec, without, &say)?;
@@ -262,6 +258,16 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     found.chain = kept;
     found.look_alikes = confirmed(&cx, &set, &fin, met, without, &found.holdout)?;
     Ok(found)
+}
+
+/// The options of the search's fits: the user's `opts` without progress bars, the current
+/// fitted only where every record of `data` holds it.
+pub fn fit_options(data: &Data, opts: &FitOptions) -> FitOptions {
+    FitOptions {
+        quiet: true,
+        speed_only: !data.with_current,
+        ..opts.clone()
+    }
 }
 
 /// `effect`, the search's choice at a step with its fit `fit`, as the records show it: the

@@ -1,0 +1,149 @@
+//! Tests of the fits' wrappers: the widened search.
+
+use super::*;
+use motor_id_shared::model::sim::{InitialState, Simulator};
+use motor_id_shared::ParamId;
+
+/// The motor of the widened search's test: a tacho ripple of 5 % at 8 cycles per
+/// revolution, phase 1 rad.
+pub fn rippled() -> ModelParams {
+    ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08)
+        .with(ParamId::RippleAmp, 0.05)
+        .with(ParamId::RippleCycles, 8.0)
+        .with(ParamId::RipplePhase, 1.0)
+}
+
+/// `seconds` at 1 kHz of `p` driven by a square wave of 24 V and 6 V with a 2 s period,
+/// with a little deterministic noise on both readings (of the generator seeded `seed`).
+pub fn record(p: &ModelParams, seconds: usize, seed: u32) -> OwnedRecord {
+    let (dt, n) = (1e-3f32, 1000 * seconds);
+    let v: Vec<f32> = (0..n)
+        .map(|k| if (k / 1000) % 2 == 0 { 24.0 } else { 6.0 })
+        .collect();
+    let mut sim = Simulator::new(p, dt, InitialState::REST).unwrap();
+    let mut x: u32 = seed.max(1);
+    let mut noise = |scale: f32| {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        scale * ((x % 2001) as f32 / 1000.0 - 1.0)
+    };
+    let (mut omega, mut current) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for &volts in &v {
+        let y = sim.reading();
+        omega.push(y.omega + noise(0.05));
+        current.push(y.current + noise(0.01));
+        sim.advance(volts, 0.0);
+    }
+    OwnedRecord {
+        path: "rippled.csv".into(),
+        t0: 0.0,
+        dt,
+        v,
+        omega,
+        current: Some(current),
+        load: None,
+        coast_from: None,
+        averaged: 1,
+    }
+}
+
+/// The motor of `p` free with the parameters `own` free within their bounds `lo..hi`, and
+/// the same with only `own` free, everything else held at `start`: the problem and the
+/// search of its basin.
+fn problem_of(own: &[(ParamId, f32, f32)], start: &ModelParams) -> (ProblemSpec, ProblemSpec) {
+    let mut spec = ProblemSpec::default();
+    for &(id, lo, hi) in own {
+        spec.set_bounds(id, lo, hi).unwrap();
+        spec.free(id);
+    }
+    let mut alone = spec;
+    alone.base = *start;
+    ParamId::MOTOR
+        .iter()
+        .for_each(|id| alone.free[id.index()] = false);
+    (spec, alone)
+}
+
+pub fn quiet() -> FitOptions {
+    FitOptions {
+        quiet: true,
+        ..FitOptions::default()
+    }
+}
+
+#[test]
+fn a_widened_search_leaves_a_ridge_least_squares_stays_on() {
+    // A ripple started half a turn off its phase: least squares alone sits on the ridge
+    // (the phase's gradient vanishes there by symmetry) and takes the amplitude to zero.
+    let truth = rippled();
+    let records = [record(&truth, 12, 11)];
+    let start = truth.with(ParamId::RipplePhase, 1.0 + core::f32::consts::PI);
+    let (mut spec, mut alone) = problem_of(
+        &[
+            (ParamId::RippleAmp, 0.0, 0.2),
+            (ParamId::RipplePhase, 0.0, core::f32::consts::TAU),
+        ],
+        &start,
+    );
+    spec.fix(ParamId::RippleCycles, 8.0).unwrap();
+    alone.fix(ParamId::RippleCycles, 8.0).unwrap();
+    let at_truth = refit_from(&records, &quiet(), &spec, &truth)
+        .unwrap()
+        .result;
+    let stalled = refit_from(&records, &quiet(), &spec, &start)
+        .unwrap()
+        .result;
+    assert!(
+        stalled.cost.rmse_omega > 10.0 * at_truth.cost.rmse_omega,
+        "least squares from the ridge should stall: speed rmse {} against {}",
+        stalled.cost.rmse_omega,
+        at_truth.cost.rmse_omega
+    );
+    let widened = widen_from(&records, &quiet(), &alone, &spec, &start, false).unwrap();
+    assert_eq!(widened.decimation, 1);
+    let found = widened.fit.result;
+    assert!(
+        found.cost.rmse_omega < 1.01 * at_truth.cost.rmse_omega,
+        "the widened search should reach the truth's basin: speed rmse {} against {}",
+        found.cost.rmse_omega,
+        at_truth.cost.rmse_omega
+    );
+    let amp = found.params.get(ParamId::RippleAmp);
+    assert!((amp - 0.05).abs() < 0.005, "ripple amplitude {amp}");
+}
+
+#[test]
+fn a_widened_search_on_decimated_records_finds_a_limit_least_squares_cannot_see() {
+    // A drive's current limit of 10 A started at 30 A, above every current of the record
+    // (24 A at the steps): the limit never binds there, its gradient is zero and least
+    // squares stays.
+    let truth = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08).with(ParamId::Imax, 10.0);
+    let records = [record(&truth, 24, 11)];
+    let start = truth.with(ParamId::Imax, 30.0);
+    let (spec, alone) = problem_of(&[(ParamId::Imax, 0.5, 40.0)], &start);
+    let at_truth = refit_from(&records, &quiet(), &spec, &truth)
+        .unwrap()
+        .result;
+    let stalled = refit_from(&records, &quiet(), &spec, &start)
+        .unwrap()
+        .result;
+    assert!(
+        stalled.cost.fitness() > 2.0 * at_truth.cost.fitness(),
+        "least squares from an idle limit should stall: {} against {}",
+        stalled.cost.fitness(),
+        at_truth.cost.fitness()
+    );
+    let widened = widen_from(&records, &quiet(), &alone, &spec, &start, true).unwrap();
+    // 24,000 samples searched as 8,000.
+    assert_eq!(widened.decimation, 3);
+    let found = widened.fit.result;
+    assert!(
+        found.cost.fitness() < 1.01 * at_truth.cost.fitness(),
+        "the widened search should find the limit: {} against {}",
+        found.cost.fitness(),
+        at_truth.cost.fitness()
+    );
+    let imax = found.params.get(ParamId::Imax);
+    assert!((imax - 10.0).abs() < 0.1, "imax {imax}");
+}
