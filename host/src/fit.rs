@@ -4,7 +4,7 @@
 use crate::csvio::OwnedRecord;
 use crate::progress::FitProgress;
 use crate::spec::{parse_bounds, parse_fix, problem, BoundsSpec, FixSpec};
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use motor_id_shared::fit::identify::{
     identify_from, Escalation, Identification, IdentifyConfig, Pipeline, SearchWhen,
@@ -184,18 +184,24 @@ pub fn widen_from(
         true => samples.div_ceil(WIDENED_SAMPLES).max(1),
         false => 1,
     };
-    let coarse: Option<Vec<OwnedRecord>> = match k {
-        1 => None,
-        _ => records.iter().map(|r| r.decimated(k)).collect(),
+    // A record too short for the decimation (or with a coast-down within one block) is
+    // searched whole.
+    let coarse: Vec<OwnedRecord> = match k {
+        1 => Vec::new(),
+        _ => records
+            .iter()
+            .map(|r| r.decimated(k).unwrap_or_else(|| r.clone()))
+            .collect(),
     };
-    let (searched, k) = match &coarse {
-        Some(c) => (&c[..], k),
-        None => (records, 1),
+    let searched = if coarse.is_empty() {
+        records
+    } else {
+        &coarse[..]
     };
     let pipeline = IdentifyConfig::default_pipeline(opts.seed);
-    let (ffo, seed) = pipeline
-        .wider(0)
-        .expect("the default pipeline escalates (Escalation::Host)");
+    let Some((ffo, seed)) = pipeline.wider(0) else {
+        bail!("the default pipeline has no wider search");
+    };
     let cfg = IdentifyConfig {
         ffo,
         seed,
@@ -218,7 +224,8 @@ pub struct Widened {
     pub fit: Fit,
     /// Evaluations of the wider search (on the decimated records).
     pub search_evaluations: u32,
-    /// Rows of the records per sample of the wider search's (1: not decimated).
+    /// Rows of a record per sample of the wider search's (1: not decimated; a record too
+    /// short for it is searched whole).
     pub decimation: usize,
 }
 

@@ -2,7 +2,7 @@
 //! the decimation of [`ReadOptions`] (see the module doc of [`super`]).
 
 use super::rows::Rows;
-use super::samples::Samples;
+use super::samples::{decimated_time, Samples};
 use super::time::TimeSteps;
 use super::OwnedRecord;
 use anyhow::{anyhow, bail, Context, Result};
@@ -164,16 +164,9 @@ impl RecordReader {
             );
         }
         let coast_from = coast_row.map(|r| samples.coast_from(r)).transpose()?;
-        // Decimated, a sample stands for the middle of its block of rows.
         let (t0, dt) = match k {
             1 => (times.first(), dt),
-            _ => {
-                let step = times.mean_step();
-                (
-                    times.first() + (k - 1) as f64 / 2.0 * step,
-                    (step * k as f64) as f32,
-                )
-            }
+            _ => decimated_time(times.first(), times.mean_step(), k),
         };
         let rec = OwnedRecord {
             path: path.to_path_buf(),

@@ -182,6 +182,15 @@ impl Samples {
     }
 }
 
+/// The first time and the step of a record decimated by `k` whose rows start at `first`
+/// and step `step`: a sample stands for the middle of its block of rows.
+pub fn decimated_time(first: f64, step: f64, k: usize) -> (f64, f32) {
+    (
+        first + (k - 1) as f64 / 2.0 * step,
+        (step * k as f64) as f32,
+    )
+}
+
 impl super::OwnedRecord {
     /// This record with one sample per `k` of its own, decimated as `--decimate k` reads
     /// a file (the module's doc): the readings the mean of each block, the inputs the mean
@@ -213,10 +222,11 @@ impl super::OwnedRecord {
             Some(row) => Some(samples.coast_from(row).ok()?),
             None => None,
         };
+        let (t0, dt) = decimated_time(self.t0, self.dt as f64, k);
         Some(super::OwnedRecord {
             path: self.path.clone(),
-            t0: self.t0 + (k - 1) as f64 / 2.0 * self.dt as f64,
-            dt: self.dt * k as f32,
+            t0,
+            dt,
             v: samples.v,
             omega: samples.omega,
             current: samples.current,

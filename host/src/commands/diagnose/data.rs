@@ -4,7 +4,7 @@
 
 use super::verdict::{Candidate, HeldOut};
 use crate::csvio::OwnedRecord;
-use crate::fit::Fit;
+use crate::fit::{Fit, FitOptions};
 use anyhow::{anyhow, Result};
 use motor_id_shared::fit::objective::{Cost, Objective};
 use motor_id_shared::model::effects::{Effect, Scales};
@@ -93,6 +93,16 @@ pub struct Scored {
 }
 
 impl Data {
+    /// The options of the search's fits on these records: the user's `opts` without
+    /// progress bars, the current fitted only where every record holds it.
+    pub fn fit_options(&self, opts: &FitOptions) -> FitOptions {
+        FitOptions {
+            quiet: true,
+            speed_only: !self.with_current,
+            ..opts.clone()
+        }
+    }
+
     /// `f` of the held-out records' objective.
     fn on_holdout<T>(&self, f: impl FnOnce(&Objective) -> T) -> Result<T> {
         let recs = OwnedRecord::as_records(&self.holdout, self.with_current);

@@ -136,3 +136,40 @@ pub fn effects_alone(spec: &ProblemSpec, effects: &[Effect], at: &ModelParams) -
     }
     alone
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The parameters `spec` leaves free.
+    fn free(spec: &ProblemSpec) -> Vec<ParamId> {
+        ParamId::ALL
+            .into_iter()
+            .filter(|id| spec.free[id.index()])
+            .collect()
+    }
+
+    #[test]
+    fn an_effect_alone_frees_its_own_and_its_parent_s_parameters_only() {
+        let mut spec = ProblemSpec::default();
+        for id in [ParamId::Tc, ParamId::Ts, ParamId::Ws, ParamId::RippleAmp] {
+            spec.set_bounds(id, 0.0, 0.1).unwrap();
+            spec.free(id);
+        }
+        let at = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08).with(ParamId::Tc, 0.3);
+        let alone = effects_alone(&spec, &[Effect::StaticFriction], &at);
+        assert_eq!(free(&alone), [ParamId::Tc, ParamId::Ts, ParamId::Ws]);
+        assert_eq!(alone.base, at);
+        assert_eq!(alone.bounds, spec.bounds);
+        let both = effects_alone(&spec, &[Effect::StaticFriction, Effect::TachoRipple], &at);
+        assert_eq!(
+            free(&both),
+            [ParamId::Tc, ParamId::RippleAmp, ParamId::Ts, ParamId::Ws]
+        );
+        // A parameter the user fixed stays fixed.
+        let mut fixed = spec;
+        fixed.free[ParamId::Ts.index()] = false;
+        let alone = effects_alone(&fixed, &[Effect::StaticFriction], &at);
+        assert_eq!(free(&alone), [ParamId::Tc, ParamId::Ws]);
+    }
+}

@@ -6,6 +6,7 @@
 use super::data::Scored;
 use super::regimes::WhereReport;
 use super::verdict::{predicts_better, significant, Holdout};
+use super::widening::WidenedRefit;
 use motor_id_shared::model::effects::{Effect, Scales};
 
 /// What the search found.
@@ -34,6 +35,8 @@ pub struct Search {
     /// Effects added at a step of the search where an entry of another form fitted the
     /// held-out records about as well ([`LookAlike`]).
     pub look_alikes: Vec<LookAlike>,
+    /// The final model's fit widened before it was judged ([`super::widening`]).
+    pub widened: Option<WidenedRefit>,
 }
 
 /// An effect the search added where an entry of another form (neither the entry it extends

@@ -115,9 +115,12 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     };
     // The repeats first: a file given by --repeats that cannot be read fails before the fits.
     let repeats = repeatability::Repeats::find(&data, &a.repeats, &mut reader)?;
-    let mut found = search::search(&data, &a.fit, &a.without)?;
+    let repeat_floor = repeats.holdout_floor().map(|f| f as f32);
+    let found = search::search(&data, &a.fit, &a.without, repeat_floor)?;
+    let after = found.last();
+    let repeats = repeats.report(&data, &after.fit.result.params)?;
     let current_noise = found.holdout.current_noise;
-    let (repeats, left) = judge(&data, &mut found, &a.fit, &repeats, current_noise)?;
+    let left = what_is_left(&data, &found, &a.fit, &repeats, current_noise)?;
     let warnings = data.foreign_holdouts(&found.baseline)?;
     for w in &warnings {
         eprintln!("warning: {w}");
@@ -139,50 +142,6 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     Ok(())
 }
 
-/// The final model of `found` judged: the repeatability report of `repeats` and what it
-/// leaves on the held-out records ([`what_is_left`]). A remainder is not blamed on the
-/// records before the final model's search is widened ([`widening`], beside the questions
-/// asked of the model as the search left it); a widened fit that is taken replaces the
-/// final model, and the questions are asked of it again.
-fn judge(
-    data: &Data,
-    found: &mut found::Search,
-    opts: &FitOptions,
-    repeats: &repeatability::Repeats,
-    current_noise: Option<f32>,
-) -> Result<(repeatability::Repeatability, WhatIsLeft)> {
-    let mut judged = repeats.report(data, &found.last().fit.result.params)?;
-    let after = found.last();
-    let floor = remainder::floor(found.holdout.noise, judged.holdout_floor().map(|f| f.0)).0;
-    let unexplained = remainder::unexplained(after.holdout_rmse, floor)
-        || after
-            .holdout_rmse_current
-            .zip(current_noise)
-            .is_some_and(|(rmse, noise)| remainder::unexplained(rmse, noise));
-    let named: Vec<Effect> = found.named().map(|(e, _)| e).collect();
-    let widen = unexplained && !named.is_empty() && !after.fit.result.at_noise_floor();
-    if widen && !opts.quiet {
-        eprintln!("widening the final model's search before judging what it leaves");
-    }
-    let options = search::fit_options(data, opts);
-    let (left, widened) = std::thread::scope(|scope| {
-        let widened = widen.then(|| scope.spawn(|| widening::widen(data, &options, &named, after)));
-        let left = what_is_left(data, found, opts, &judged, current_noise);
-        let widened = widened.map(|w| w.join().expect("the widened search does not panic"));
-        (left, widened)
-    });
-    let mut left = left?;
-    if let Some((refit, scored)) = widened.transpose()?.flatten() {
-        if let (Some(scored), Some((_, last))) = (scored, found.chain.last_mut()) {
-            *last = scored;
-            judged = repeats.report(data, &found.last().fit.result.params)?;
-            left = what_is_left(data, found, opts, &judged, current_noise)?;
-        }
-        left.widened = Some(refit);
-    }
-    Ok((judged, left))
-}
-
 /// What the final model leaves on the held-out records, for the verdict.
 pub struct WhatIsLeft {
     /// The speed's remainder above the floor, where it lies (None when explained).
@@ -191,8 +150,6 @@ pub struct WhatIsLeft {
     pub current_where: Option<(Vec<regime_shares::RegimeShare>, Vec<String>)>,
     /// Named effects whose own regime keeps the misfit ([`naming`]).
     pub where_it_acts: Vec<naming::MisfitWhereItActs>,
-    /// The final model's search widened before its remainder was judged ([`widening`]).
-    pub widened: Option<widening::WidenedRefit>,
 }
 
 /// What the final model of `found` leaves on the held-out records of `data`: the speed's
@@ -239,6 +196,5 @@ fn what_is_left(
         remainder,
         current_where,
         where_it_acts,
-        widened: None,
     })
 }

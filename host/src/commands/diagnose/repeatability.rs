@@ -335,23 +335,29 @@ impl Repeats {
         Ok(Repeats { groups, held })
     }
 
+    /// The run-to-run floor of the held-out records that have repeats, pooled (`None`
+    /// when none has): what no model can remove there.
+    pub fn holdout_floor(&self) -> Option<f64> {
+        (!self.held.is_empty()).then(|| pooled(self.held.iter().map(|&(_, f, len)| (f, len))))
+    }
+
     /// The report, with `after` the verdict's model for the held-out remainder.
-    pub fn report(&self, data: &Data, after: &ModelParams) -> Result<Repeatability> {
-        let holdout = if self.held.is_empty() {
-            None
-        } else {
-            let which: Vec<usize> = self.held.iter().map(|h| h.0).collect();
-            let floor = pooled(self.held.iter().map(|&(_, f, len)| (f, len)));
-            let remainder = data.holdout_rmse_of(after, &which)? as f64;
-            Some(HoldoutFloor {
-                records: which.iter().map(|&k| data.holdout[k].name()).collect(),
-                floor_rad_s: Num(floor as f32),
-                remainder_rad_s: Num(remainder as f32),
-                within_floor: remainder <= WITHIN * floor,
-            })
+    pub fn report(self, data: &Data, after: &ModelParams) -> Result<Repeatability> {
+        let holdout = match self.holdout_floor() {
+            None => None,
+            Some(floor) => {
+                let which: Vec<usize> = self.held.iter().map(|h| h.0).collect();
+                let remainder = data.holdout_rmse_of(after, &which)? as f64;
+                Some(HoldoutFloor {
+                    records: which.iter().map(|&k| data.holdout[k].name()).collect(),
+                    floor_rad_s: Num(floor as f32),
+                    remainder_rad_s: Num(remainder as f32),
+                    within_floor: remainder <= WITHIN * floor,
+                })
+            }
         };
         Ok(Repeatability {
-            groups: self.groups.clone(),
+            groups: self.groups,
             method: METHOD,
             holdout,
         })

@@ -119,7 +119,7 @@ pub struct Verdict {
     /// What is left, how large against the floor and where (`null` when explained).
     pub remainder: Option<Remainder>,
     /// The final model's search, widened before what it leaves was judged (`null` when
-    /// it was not: no effect named, its fit at the noise, or the misfit explained).
+    /// it was not: no effect in it, its fit at the noise, or the misfit explained).
     pub widened: Option<WidenedRefit>,
     /// The current channel, when current is measured.
     pub current: Option<ChannelVerdict>,
@@ -243,7 +243,6 @@ impl DiagnoseReport {
             remainder,
             current_where,
             where_it_acts,
-            widened,
         } = left;
         let baseline = &search.baseline;
         let holdout_noise = search.holdout.noise;
@@ -358,7 +357,7 @@ impl DiagnoseReport {
                 || !judged.loose.is_empty(),
             partial: judged.partial,
             remainder,
-            widened,
+            widened: search.widened.clone(),
             current,
         };
         DiagnoseReport {

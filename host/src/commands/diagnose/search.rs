@@ -16,19 +16,27 @@ use super::parallel::in_parallel;
 use super::regime_shares::{misfit_where_named_act, told_apart_where_it_acts};
 use super::search_context::{reduced, Context};
 use super::verdict::{predicts_better, significant, Holdout};
+use super::widening::widened_final;
 use crate::fit::FitOptions;
 use anyhow::Result;
 use motor_id_shared::model::effects::Effect;
 
 /// Run the search on `data` with the user's fit options (`opts.quiet` silences the steps'
-/// messages; the fits themselves show no progress bar), the catalogue less `without`.
-pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Search> {
+/// messages; the fits themselves show no progress bar), the catalogue less `without`; the
+/// final model is widened where it would leave the held-out records unexplained, against
+/// the noise or their run-to-run floor `repeat_floor` ([`widened_final`]).
+pub fn search(
+    data: &Data,
+    opts: &FitOptions,
+    without: &[Effect],
+    repeat_floor: Option<f32>,
+) -> Result<Search> {
     let say = |msg: String| {
         if !opts.quiet {
             eprintln!("{msg}");
         }
     };
-    let quiet = fit_options(data, opts);
+    let quiet = data.fit_options(opts);
     let spec = crate::spec::problem(&opts.bounds, &opts.fix)?;
     say("fitting the baseline model on the training records".into());
     let (baseline, round) = baseline_and_first_round(data, &quiet, &spec, without, &say)?;
@@ -52,6 +60,7 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
         left_out_parents,
         standing_in: Vec::new(),
         look_alikes: Vec::new(),
+        widened: None,
     };
     // The first effect: the best significant one the data needs; one that only matches
     // the entry it extends, left out, stands in for it and is passed over.
@@ -234,6 +243,8 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     }
 
     let (set, fin) = limits_taken(&cx, set, fin, &usable, without, &found.holdout, &say)?;
+    let (fin, widened) = widened_final(data, &quiet, &set, fin, &found.holdout, repeat_floor, &say);
+    found.widened = widened;
 
     // The chain reported: the forward steps while they agree with the final set, then the
     // models of the final set's prefixes refitted from the final fit, the last one the
@@ -258,16 +269,6 @@ pub fn search(data: &Data, opts: &FitOptions, without: &[Effect]) -> Result<Sear
     found.chain = kept;
     found.look_alikes = confirmed(&cx, &set, &fin, met, without, &found.holdout)?;
     Ok(found)
-}
-
-/// The options of the search's fits: the user's `opts` without progress bars, the current
-/// fitted only where every record of `data` holds it.
-pub fn fit_options(data: &Data, opts: &FitOptions) -> FitOptions {
-    FitOptions {
-        quiet: true,
-        speed_only: !data.with_current,
-        ..opts.clone()
-    }
 }
 
 /// `effect`, the search's choice at a step with its fit `fit`, as the records show it: the

@@ -5,16 +5,21 @@
 //! refit that stalls short of its optimum leaves a misfit that is the search's, not the
 //! model's, and the remainder would blame the records for it (an asymmetric friction named
 //! right, its held-out misfit 0.97 rad/s where the true model reaches the noise, 0.78).
-//! So when the final model holds an effect (the baseline's own fit has the escalation
-//! already), its training fit stays above its noise floor and its held-out misfit is
-//! unexplained, its search is widened as the escalation widens the base fit
+//! So when the final model holds an effect, its training fit stays above its noise floor
+//! and its held-out misfit is above 1.2 times the floor (on the speed against the noise or
+//! the repeatability floor, or on the current against its noise: what the remainder
+//! judges, [`super::remainder`]), the search of its effects' own parameters is widened as
+//! the escalation widens the base fit, and everything refitted from there
 //! ([`crate::fit::widen_from`]). The widened fit replaces it where it lowers the training
-//! cost by 1 % or more (`WIDER_GAIN`, the escalation's own rule), and the verdict is judged
-//! on it; otherwise the misfit is the model's, as the escalation concludes of the base fit.
-//! (docs/ARCHITECTURE.md, the diagnosis' "Which".)
+//! cost by 1 % or more (`WIDER_GAIN`, the escalation's own rule), before the search builds
+//! its chain's steps from the final fit and weighs the look-alikes on it
+//! ([`super::search`]); otherwise the misfit is the model's, as the escalation concludes
+//! of the base fit. (docs/ARCHITECTURE.md, the diagnosis' "Which".)
 
 use super::data::{Data, Scored};
 use super::effect_fit::effects_alone;
+use super::remainder::{floor, unexplained};
+use super::verdict::Holdout;
 use crate::fit::{widen_from, FitOptions};
 use crate::report::Num;
 use anyhow::Result;
@@ -29,12 +34,18 @@ pub struct WidenedRefit {
     pub train_rmse_before: Num,
     /// Training speed RMSE of the widened fit [rad/s].
     pub train_rmse_widened: Num,
-    /// Whether the widened fit lowered the training cost by 1 % or more and replaced the
-    /// final model.
+    /// The training objective the rule compares (the speed's and, when fitted, the
+    /// current's misfit, each over its noise), of the final model as the search left it.
+    pub objective_before: Num,
+    /// The same of the widened fit.
+    pub objective_widened: Num,
+    /// Whether the widened fit lowered the objective by 1 % or more and replaced the final
+    /// model.
     pub taken: bool,
     /// Evaluations of the wider search.
     pub evaluations: u32,
-    /// Rows of the records per sample of the wider search's (1: not decimated).
+    /// Rows of a record per sample of the wider search's (1: every sample; a record too
+    /// short for it is searched whole).
     pub decimation: usize,
 }
 
@@ -45,9 +56,17 @@ impl WidenedRefit {
             true => "it fits better and replaces the search's",
             false => "no better by 1 %: the misfit is the model's, not the search's",
         };
+        let records = match self.decimation {
+            1 => "on every sample".to_string(),
+            k => format!("on the records decimated {k}x"),
+        };
         format!(
-            "the final model's fit, above its noise, was widened before its remainder was judged ({} evaluations, records decimated {}x): training rmse {:.4} -> {:.4} rad/s, {what}",
-            self.evaluations, self.decimation, self.train_rmse_before.0, self.train_rmse_widened.0
+            "the final model's fit, above its noise, was widened before its remainder was judged ({} evaluations {records}): training rmse {:.4} -> {:.4} rad/s (objective {:.4} -> {:.4}), {what}",
+            self.evaluations,
+            self.train_rmse_before.0,
+            self.train_rmse_widened.0,
+            self.objective_before.0,
+            self.objective_widened.0
         )
     }
 }
@@ -63,20 +82,59 @@ fn seen_decimated(effect: Effect) -> bool {
     )
 }
 
-/// The final model `last`, with the effects `named`, widened (with the user's fit options
-/// `opts`, quiet) when it holds an effect and its training fit stays above its noise
-/// floor: what the wider search did, and the widened fit scored on `data` when it is
-/// taken. `None` when not widened.
-pub fn widen(
+/// Whether the final model `fin` leaves the held-out records of `holdout` unexplained:
+/// its speed's misfit above 1.2 times the floor (the noise, or `repeat_floor` when larger)
+/// or its current's above 1.2 times its noise, as [`super::remainder`] judges them.
+pub fn leaves_unexplained(fin: &Scored, holdout: &Holdout, repeat_floor: Option<f32>) -> bool {
+    let (speed_floor, _) = floor(holdout.noise, repeat_floor);
+    unexplained(fin.holdout_rmse, speed_floor)
+        || fin
+            .holdout_rmse_current
+            .zip(holdout.current_noise)
+            .is_some_and(|(rmse, noise)| unexplained(rmse, noise))
+}
+
+/// The final model `fin` of the effects `set`, widened (with the search's fit options
+/// `opts`) when it holds an effect, its training fit stays above its noise floor and it
+/// leaves the held-out records unexplained ([`leaves_unexplained`]): the model to report
+/// (the widened fit, scored on `data`, where it is taken) and what the widening did. A
+/// widened search that fails (a record its start cannot simulate) leaves `fin` as it is
+/// and says so on stderr: it is a second opinion, not the diagnosis.
+pub fn widened_final(
+    data: &Data,
+    opts: &FitOptions,
+    set: &[Effect],
+    fin: Scored,
+    holdout: &Holdout,
+    repeat_floor: Option<f32>,
+    say: &dyn Fn(String),
+) -> (Scored, Option<WidenedRefit>) {
+    let above = !fin.fit.result.at_noise_floor();
+    if set.is_empty() || !above || !leaves_unexplained(&fin, holdout, repeat_floor) {
+        return (fin, None);
+    }
+    say("widening the final model's search before judging what it leaves".into());
+    match widen(data, opts, set, &fin) {
+        Ok((refit, Some(widened))) => (widened, Some(refit)),
+        Ok((refit, None)) => (fin, Some(refit)),
+        Err(e) => {
+            eprintln!(
+                "warning: the final model's widened search failed ({e:#}); the search's fit stands"
+            );
+            (fin, None)
+        }
+    }
+}
+
+/// `last`, the final model of the effects `named`, widened: what the wider search did, and
+/// the widened fit scored on `data` when it is taken.
+fn widen(
     data: &Data,
     opts: &FitOptions,
     named: &[Effect],
     last: &Scored,
-) -> Result<Option<(WidenedRefit, Option<Scored>)>> {
+) -> Result<(WidenedRefit, Option<Scored>)> {
     let before = &last.fit.result;
-    if named.is_empty() || before.at_noise_floor() {
-        return Ok(None);
-    }
     let spec = &last.fit.spec;
     let alone = effects_alone(spec, named, &before.params);
     let decimate = named.iter().all(|e| seen_decimated(*e));
@@ -86,6 +144,8 @@ pub fn widen(
     let refit = WidenedRefit {
         train_rmse_before: Num(before.cost.rmse_omega),
         train_rmse_widened: Num(after.cost.rmse_omega),
+        objective_before: Num(before.cost.fitness()),
+        objective_widened: Num(after.cost.fitness()),
         taken,
         evaluations: widened.search_evaluations,
         decimation: widened.decimation,
@@ -94,7 +154,7 @@ pub fn widen(
         true => Some(data.score(widened.fit)?),
         false => None,
     };
-    Ok(Some((refit, scored)))
+    Ok((refit, scored))
 }
 
 #[cfg(test)]
@@ -104,6 +164,15 @@ mod tests {
     use crate::fit::tests::{quiet, record, rippled};
     use motor_id_shared::fit::space::ProblemSpec;
     use motor_id_shared::{ModelParams, ParamId};
+
+    /// The held-out scales of `data` as the search measures them (no ripple taken out).
+    fn holdout_of(data: &Data) -> Holdout {
+        Holdout {
+            noise: data.holdout_noise().unwrap(),
+            signal_rms: data.holdout_rms(),
+            current_noise: data.holdout_current_noise().unwrap(),
+        }
+    }
 
     #[test]
     fn a_stalled_final_model_is_widened_and_replaced_a_converged_one_stands() {
@@ -115,36 +184,84 @@ mod tests {
             holdout: vec![record(&truth, 8, 29)],
             with_current: true,
         };
+        let holdout = holdout_of(&data);
         let mut spec = ProblemSpec::default();
         spec.set_bounds(ParamId::Imax, 0.5, 40.0).unwrap();
         spec.free(ParamId::Imax);
-        let scored = |start: &ModelParams| {
+        let scored = |data: &Data, start: &ModelParams| {
             let fit = refit_from(&data.train, &quiet(), &spec, start).unwrap();
             data.score(fit).unwrap()
         };
-        let stalled = scored(&truth.with(ParamId::Imax, 30.0));
+        let stalled = scored(&data, &truth.with(ParamId::Imax, 30.0));
         let limit = [Effect::CurrentLimit];
-        let (refit, widened) = widen(&data, &quiet(), &limit, &stalled).unwrap().unwrap();
+        assert!(leaves_unexplained(&stalled, &holdout, None));
+        let (fin, refit) = widened_final(
+            &data,
+            &quiet(),
+            &limit,
+            stalled.clone(),
+            &holdout,
+            None,
+            &|_| {},
+        );
+        let refit = refit.expect("widened");
         assert!(refit.taken, "{refit:?}");
         assert_eq!(
             refit.decimation, 3,
             "24,000 training samples searched as 8,000"
         );
-        let widened = widened.expect("taken: scored");
         assert!(
-            widened.holdout_rmse < 0.5 * stalled.holdout_rmse,
+            fin.holdout_rmse < 0.5 * stalled.holdout_rmse,
             "held out {} against {}",
-            widened.holdout_rmse,
+            fin.holdout_rmse,
             stalled.holdout_rmse
         );
-        let imax = widened.fit.result.params.get(ParamId::Imax);
+        assert!(!leaves_unexplained(&fin, &holdout, None), "explained");
+        let imax = fin.fit.result.params.get(ParamId::Imax);
         assert!((imax - 10.0).abs() < 0.1, "imax {imax}");
         assert!(refit.line().contains("replaces"), "{}", refit.line());
 
+        // No effect named (the baseline's own fit has the escalation), or a model the
+        // repeatability floor explains: not widened.
+        let none: [Effect; 0] = [];
+        assert!(widened_final(
+            &data,
+            &quiet(),
+            &none,
+            stalled.clone(),
+            &holdout,
+            None,
+            &|_| {}
+        )
+        .1
+        .is_none());
+        // The speed's misfit against a repeatability floor that explains it (the current's
+        // left out): not unexplained, and not widened.
+        let speed_only = Holdout {
+            current_noise: None,
+            ..holdout
+        };
+        let floor = Some(stalled.holdout_rmse);
+        assert!(leaves_unexplained(&stalled, &speed_only, None));
+        assert!(!leaves_unexplained(&stalled, &speed_only, floor));
+        let (kept, refit) = widened_final(
+            &data,
+            &quiet(),
+            &limit,
+            stalled.clone(),
+            &speed_only,
+            floor,
+            &|_| {},
+        );
+        assert!(refit.is_none() && kept.holdout_rmse == stalled.holdout_rmse);
         // At its noise floor: not widened.
-        assert!(widen(&data, &quiet(), &limit, &scored(&truth))
-            .unwrap()
-            .is_none());
+        let converged = scored(&data, &truth);
+        assert!(converged.fit.result.at_noise_floor());
+        assert!(
+            widened_final(&data, &quiet(), &limit, converged, &holdout, None, &|_| {})
+                .1
+                .is_none()
+        );
 
         // Converged above the floor (a Coulomb friction the model lacks): widened, no
         // better, not taken.
@@ -154,65 +271,55 @@ mod tests {
             holdout: vec![record(&rubbing, 8, 29)],
             with_current: true,
         };
-        let fit = refit_from(&data.train, &quiet(), &spec, &truth).unwrap();
-        let converged = data.score(fit).unwrap();
-        let (refit, widened) = widen(&data, &quiet(), &limit, &converged).unwrap().unwrap();
-        assert!(!refit.taken && widened.is_none(), "{refit:?}");
+        let converged = scored(&data, &truth);
+        let holdout = holdout_of(&data);
+        let before = converged.holdout_rmse;
+        let (fin, refit) =
+            widened_final(&data, &quiet(), &limit, converged, &holdout, None, &|_| {});
+        let refit = refit.expect("widened");
+        assert!(!refit.taken && fin.holdout_rmse == before, "{refit:?}");
         assert!(refit.line().contains("the model's, not the search's"));
-        // No effect named: the baseline's own fit had the escalation.
-        assert!(widen(&data, &quiet(), &[], &stalled).unwrap().is_none());
     }
 
     #[test]
-    fn a_verdict_is_judged_on_the_widened_model_where_it_is_taken() {
-        // The search names the tacho's ripple; its fit then stalled (started half a turn
-        // off its phase, least squares took its amplitude to zero): the verdict says what
-        // is left of the widened model, not of it. (What the search found leaves a
-        // remainder here: the ripple's phase follows the model's integrated angle.)
+    fn a_ripple_s_stalled_fit_is_widened_on_every_sample() {
+        // The ripple's fit started half a turn off its phase: least squares took its
+        // amplitude to zero. Widened on every sample (a block's mean hides the ripple).
         let truth = rippled();
         let data = Data {
             train: vec![record(&truth, 12, 11)],
             holdout: vec![record(&truth, 6, 29)],
             with_current: true,
         };
-        let opts = quiet();
-        let mut found = super::super::search::search(&data, &opts, &[]).unwrap();
-        let named: Vec<Effect> = found.named().map(|(e, _)| e).collect();
-        assert_eq!(named, [Effect::TachoRipple]);
-        let last = found.last().fit.clone();
-        let searched_rmse = found.last().holdout_rmse;
-        let phase = last.result.params.get(ParamId::RipplePhase);
-        let off = (phase + core::f32::consts::PI).rem_euclid(core::f32::consts::TAU);
-        let stalled = last.result.params.with(ParamId::RipplePhase, off);
-        let fit = refit_from(&data.train, &opts, &last.spec, &stalled).unwrap();
-        found.chain[0].1 = data.score(fit).unwrap();
-        let stalled_rmse = found.last().holdout_rmse;
-        assert!(
-            stalled_rmse > 5.0 * found.holdout.noise,
-            "stalled: {stalled_rmse}"
-        );
-        let mut reader = crate::csvio::RecordReader::new(&Default::default());
-        let repeats = super::super::repeatability::Repeats::find(&data, &[], &mut reader).unwrap();
-        let current_noise = found.holdout.current_noise;
-        let (_, left) =
-            super::super::judge(&data, &mut found, &opts, &repeats, current_noise).unwrap();
-        let refit = left.widened.expect("widened");
-        assert!(refit.taken && refit.decimation == 1, "{refit:?}");
-        // Back to what the search had found, and what is left is the widened model's.
-        let after = found.last();
-        assert!(
-            after.holdout_rmse < 1.01 * searched_rmse,
-            "{} against {searched_rmse}",
-            after.holdout_rmse
-        );
-        if let Some(r) = &left.remainder {
-            let over_noise = after.holdout_rmse / found.holdout.noise;
-            assert!(
-                (r.over_noise.0 - over_noise).abs() < 1e-3 * over_noise,
-                "{r:?}"
-            );
+        let holdout = holdout_of(&data);
+        let mut spec = ProblemSpec::default();
+        spec.fix(ParamId::RippleCycles, 8.0).unwrap();
+        for (id, hi) in [(ParamId::RippleAmp, 0.2), (ParamId::RipplePhase, 6.2)] {
+            spec.set_bounds(id, 0.0, hi).unwrap();
+            spec.free(id);
         }
-        let amp = after.fit.result.params.get(ParamId::RippleAmp);
+        let start = truth.with(ParamId::RipplePhase, 1.0 + core::f32::consts::PI);
+        let fit = refit_from(&data.train, &quiet(), &spec, &start).unwrap();
+        let stalled = data.score(fit).unwrap();
+        let ripple = [Effect::TachoRipple];
+        let (fin, refit) = widened_final(
+            &data,
+            &quiet(),
+            &ripple,
+            stalled.clone(),
+            &holdout,
+            None,
+            &|_| {},
+        );
+        let refit = refit.expect("widened");
+        assert!(refit.taken && refit.decimation == 1, "{refit:?}");
+        assert!(
+            fin.holdout_rmse < 0.1 * stalled.holdout_rmse,
+            "{} against {}",
+            fin.holdout_rmse,
+            stalled.holdout_rmse
+        );
+        let amp = fin.fit.result.params.get(ParamId::RippleAmp);
         assert!((amp - 0.05).abs() < 0.005, "ripple amplitude {amp}");
     }
 }
