@@ -7,7 +7,7 @@ use crate::spec::{parse_bounds, parse_fix, problem, BoundsSpec, FixSpec};
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use motor_id_shared::fit::identify::{
-    identify_from, Escalation, Identification, IdentifyConfig, Pipeline, SearchWhen,
+    identify_from, Escalation, Identification, IdentifyConfig, Pipeline, SearchWhen, WIDER_GAIN,
 };
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::wire::protocol::PipelineName;
@@ -163,14 +163,16 @@ pub const WIDENED_SAMPLES: usize = 10_000;
 
 /// Widen the search of `spec` around its fit at `start`, which stays above its noise floor,
 /// as the pipeline's escalation widens the base fit (its first wider FFO,
-/// `IdentifyConfig::wider`, seeded with `start`) over the parameters `alone` frees (an
-/// effect's own, the rest held at `start`: the box of the motor's parameters is far wider
-/// than their basin, known already), then refit `spec` by least squares on `records` from
-/// its best ([`refit_from`]). With `decimate`, the wider search runs on the records
-/// decimated to at most [`WIDENED_SAMPLES`] (as `--decimate` reads a file: readings
-/// averaged over each block, the input's voltage-seconds kept): it finds the basin, the
-/// refit on every sample converges in it. Where a record cannot be decimated (too short, a
-/// coast-down within one block) the search runs on the records themselves.
+/// `IdentifyConfig::wider`) over the parameters `alone` frees (an effect's own, the rest
+/// held at `start`: the box of the motor's parameters is far wider than their basin, known
+/// already). The search starts from `start`'s own optimum on the records it searches
+/// (least squares over the same parameters): where it ends no better than that by 1 %
+/// (the escalation's rule) the fit stands, and nothing more is done; otherwise `spec` is
+/// refitted by least squares on `records` from its best ([`refit_from`]). With `decimate`,
+/// the search runs on the records decimated to at most [`WIDENED_SAMPLES`] (as `--decimate`
+/// reads a file: readings averaged over each block, the input's voltage-seconds kept): it
+/// finds the basin, the refit on every sample converges in it. A record that cannot be
+/// decimated (too short, a coast-down within one block) is searched whole.
 pub fn widen_from(
     records: &[OwnedRecord],
     opts: &FitOptions,
@@ -210,21 +212,34 @@ pub fn widen_from(
         profile_check: false,
         ..pipeline
     };
-    let wide = run_fit(searched, opts, alone, &cfg, Some(start))?;
+    let local = refit_from(searched, opts, alone, start)?.result;
+    let wide = run_fit(searched, opts, alone, &cfg, Some(&local.params))?.result;
+    let moved = wide.cost.fitness() < WIDER_GAIN * local.cost.fitness();
+    let fit = match moved {
+        true => Some(refit_from(records, opts, spec, &wide.params)?),
+        false => None,
+    };
     Ok(Widened {
-        fit: refit_from(records, opts, spec, &wide.result.params)?,
-        search_evaluations: wide.result.evaluations,
+        fit,
+        searched_start: local.cost.fitness(),
+        searched_widened: wide.cost.fitness(),
+        search_evaluations: local.evaluations + wide.evaluations,
         decimation: k,
     })
 }
 
 /// A fit widened by [`widen_from`].
 pub struct Widened {
-    /// The refit on the records themselves (its evaluations: the refit's only).
-    pub fit: Fit,
-    /// Evaluations of the wider search (on the decimated records).
+    /// The refit on the records themselves from the search's best, where the search
+    /// gained 1 % or more (its evaluations: the refit's only).
+    pub fit: Option<Fit>,
+    /// The objective on the searched records at the start's own optimum there.
+    pub searched_start: f32,
+    /// The same at the wider search's best.
+    pub searched_widened: f32,
+    /// Evaluations on the searched records.
     pub search_evaluations: u32,
-    /// Rows of a record per sample of the wider search's (1: not decimated; a record too
+    /// Rows of a record per sample of the searched records (1: not decimated; a record too
     /// short for it is searched whole).
     pub decimation: usize,
 }

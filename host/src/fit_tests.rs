@@ -102,7 +102,7 @@ fn a_widened_search_leaves_a_ridge_least_squares_stays_on() {
     );
     let widened = widen_from(&records, &quiet(), &alone, &spec, &start, false).unwrap();
     assert_eq!(widened.decimation, 1);
-    let found = widened.fit.result;
+    let found = widened.fit.expect("the search gained: refitted").result;
     assert!(
         found.cost.rmse_omega < 1.01 * at_truth.cost.rmse_omega,
         "the widened search should reach the truth's basin: speed rmse {} against {}",
@@ -137,7 +137,7 @@ fn a_widened_search_on_decimated_records_finds_a_limit_least_squares_cannot_see(
     let widened = widen_from(&records, &quiet(), &alone, &spec, &start, true).unwrap();
     // 24,000 samples searched as 8,000.
     assert_eq!(widened.decimation, 3);
-    let found = widened.fit.result;
+    let found = widened.fit.expect("the search gained: refitted").result;
     assert!(
         found.cost.fitness() < 1.01 * at_truth.cost.fitness(),
         "the widened search should find the limit: {} against {}",

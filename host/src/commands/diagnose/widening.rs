@@ -30,43 +30,53 @@ use serde::Serialize;
 /// What the widened search of the final model did (the verdict's `widened`).
 #[derive(Serialize, Debug, Clone)]
 pub struct WidenedRefit {
-    /// Training speed RMSE of the final model as the search left it [rad/s].
-    pub train_rmse_before: Num,
-    /// Training speed RMSE of the widened fit [rad/s].
-    pub train_rmse_widened: Num,
-    /// The training objective the rule compares (the speed's and, when fitted, the
-    /// current's misfit, each over its noise), of the final model as the search left it.
-    pub objective_before: Num,
-    /// The same of the widened fit.
-    pub objective_widened: Num,
-    /// Whether the widened fit lowered the objective by 1 % or more and replaced the final
-    /// model.
-    pub taken: bool,
     /// Evaluations of the wider search.
     pub evaluations: u32,
-    /// Rows of a record per sample of the wider search's (1: every sample; a record too
+    /// Rows of a record per sample of the records searched (1: every sample; a record too
     /// short for it is searched whole).
     pub decimation: usize,
+    /// The training objective (the speed's and, when fitted, the current's misfit, each
+    /// over its noise) on the records searched, at the final model's own optimum there.
+    pub searched_before: Num,
+    /// The same at the wider search's best.
+    pub searched_widened: Num,
+    /// Training speed RMSE of the final model as the search left it [rad/s].
+    pub train_rmse_before: Num,
+    /// The training objective of the final model as the search left it.
+    pub objective_before: Num,
+    /// Training speed RMSE of the refit on every sample from the wider search's best
+    /// (`null`: the search gained under 1 %, nothing refitted) [rad/s].
+    pub train_rmse_widened: Option<Num>,
+    /// Its training objective.
+    pub objective_widened: Option<Num>,
+    /// Whether that refit lowered the training objective by 1 % or more and replaced the
+    /// final model.
+    pub taken: bool,
 }
 
 impl WidenedRefit {
     /// What it did, in words.
     pub fn line(&self) -> String {
-        let what = match self.taken {
-            true => "it fits better and replaces the search's",
-            false => "no better by 1 %: the misfit is the model's, not the search's",
-        };
         let records = match self.decimation {
             1 => "on every sample".to_string(),
             k => format!("on the records decimated {k}x"),
         };
+        let searched = format!(
+            "the final model's fit, above its noise, was widened before its remainder was judged ({} evaluations {records}: objective {:.4} -> {:.4})",
+            self.evaluations, self.searched_before.0, self.searched_widened.0
+        );
+        let Some((rmse, objective)) = self.train_rmse_widened.zip(self.objective_widened) else {
+            return format!(
+                "{searched}, no better by 1 %: the misfit is the model's, not the search's"
+            );
+        };
+        let what = match self.taken {
+            true => "it fits better and replaces the search's",
+            false => "no better by 1 % there: the search's stands",
+        };
         format!(
-            "the final model's fit, above its noise, was widened before its remainder was judged ({} evaluations {records}): training rmse {:.4} -> {:.4} rad/s (objective {:.4} -> {:.4}), {what}",
-            self.evaluations,
-            self.train_rmse_before.0,
-            self.train_rmse_widened.0,
-            self.objective_before.0,
-            self.objective_widened.0
+            "{searched}; refitted on every sample: training rmse {:.4} -> {:.4} rad/s (objective {:.4} -> {:.4}), {what}",
+            self.train_rmse_before.0, rmse.0, self.objective_before.0, objective.0
         )
     }
 }
@@ -139,20 +149,22 @@ fn widen(
     let alone = effects_alone(spec, named, &before.params);
     let decimate = named.iter().all(|e| seen_decimated(*e));
     let widened = widen_from(&data.train, opts, &alone, spec, &before.params, decimate)?;
-    let after = &widened.fit.result;
-    let taken = after.cost.fitness() < WIDER_GAIN * before.cost.fitness();
+    let after = widened.fit.as_ref().map(|f| f.result.cost);
+    let taken = after.is_some_and(|a| a.fitness() < WIDER_GAIN * before.cost.fitness());
     let refit = WidenedRefit {
-        train_rmse_before: Num(before.cost.rmse_omega),
-        train_rmse_widened: Num(after.cost.rmse_omega),
-        objective_before: Num(before.cost.fitness()),
-        objective_widened: Num(after.cost.fitness()),
-        taken,
         evaluations: widened.search_evaluations,
         decimation: widened.decimation,
+        searched_before: Num(widened.searched_start),
+        searched_widened: Num(widened.searched_widened),
+        train_rmse_before: Num(before.cost.rmse_omega),
+        objective_before: Num(before.cost.fitness()),
+        train_rmse_widened: after.map(|a| Num(a.rmse_omega)),
+        objective_widened: after.map(|a| Num(a.fitness())),
+        taken,
     };
-    let scored = match taken {
-        true => Some(data.score(widened.fit)?),
-        false => None,
+    let scored = match (taken, widened.fit) {
+        (true, Some(fit)) => Some(data.score(fit)?),
+        _ => None,
     };
     Ok((refit, scored))
 }
