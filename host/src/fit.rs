@@ -188,17 +188,25 @@ pub fn widen_from(
     };
     // A record too short for the decimation (or with a coast-down within one block) is
     // searched whole.
+    let decimated: Vec<Option<OwnedRecord>> = match k {
+        1 => Vec::new(),
+        _ => records.iter().map(|r| r.decimated(k)).collect(),
+    };
+    let k = match decimated.iter().any(Option::is_some) {
+        true => k,
+        false => 1,
+    };
     let coarse: Vec<OwnedRecord> = match k {
         1 => Vec::new(),
-        _ => records
-            .iter()
-            .map(|r| r.decimated(k).unwrap_or_else(|| r.clone()))
+        _ => decimated
+            .into_iter()
+            .zip(records)
+            .map(|(d, r)| d.unwrap_or_else(|| r.clone()))
             .collect(),
     };
-    let searched = if coarse.is_empty() {
-        records
-    } else {
-        &coarse[..]
+    let searched = match k {
+        1 => records,
+        _ => &coarse[..],
     };
     let pipeline = IdentifyConfig::default_pipeline(opts.seed);
     let Some((ffo, seed)) = pipeline.wider(0) else {
@@ -237,10 +245,11 @@ pub struct Widened {
     pub searched_start: f32,
     /// The same at the wider search's best.
     pub searched_widened: f32,
-    /// Evaluations on the searched records.
+    /// Evaluations on the searched records: least squares from the start, then the wider
+    /// FFO and its least squares.
     pub search_evaluations: u32,
-    /// Rows of a record per sample of the searched records (1: not decimated; a record too
-    /// short for it is searched whole).
+    /// Rows of a record per sample of the searched records (1: none decimated; a record
+    /// too short for it is searched whole).
     pub decimation: usize,
 }
 

@@ -65,6 +65,7 @@ fn problem_of(own: &[(ParamId, f32, f32)], start: &ModelParams) -> (ProblemSpec,
     (spec, alone)
 }
 
+/// Fit options without progress bars.
 pub fn quiet() -> FitOptions {
     FitOptions {
         quiet: true,

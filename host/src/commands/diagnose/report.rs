@@ -119,7 +119,8 @@ pub struct Verdict {
     /// What is left, how large against the floor and where (`null` when explained).
     pub remainder: Option<Remainder>,
     /// The final model's search, widened before what it leaves was judged (`null` when
-    /// it was not: no effect in it, its fit at the noise, or the misfit explained).
+    /// it was not: no effect in it, its fit at the noise, the misfit explained, or the
+    /// widened search failed).
     pub widened: Option<WidenedRefit>,
     /// The current channel, when current is measured.
     pub current: Option<ChannelVerdict>,

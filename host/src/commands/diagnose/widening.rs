@@ -30,7 +30,8 @@ use serde::Serialize;
 /// What the widened search of the final model did (the verdict's `widened`).
 #[derive(Serialize, Debug, Clone)]
 pub struct WidenedRefit {
-    /// Evaluations of the wider search.
+    /// Evaluations on the records searched: least squares from the final model, then the
+    /// wider FFO and its least squares.
     pub evaluations: u32,
     /// Rows of a record per sample of the records searched (1: every sample; a record too
     /// short for it is searched whole).
@@ -266,18 +267,38 @@ mod tests {
             &|_| {},
         );
         assert!(refit.is_none() && kept.holdout_rmse == stalled.holdout_rmse);
-        // At its noise floor: not widened.
-        let converged = scored(&data, &truth);
-        assert!(converged.fit.result.at_noise_floor());
-        assert!(
-            widened_final(&data, &quiet(), &limit, converged, &holdout, None, &|_| {})
-                .1
-                .is_none()
+        // Trained to its noise floor (held out on another motor's records, which it leaves
+        // unexplained): not widened.
+        let rubbing = truth.with(ParamId::Tc, 0.05);
+        let elsewhere = Data {
+            train: vec![record(&truth, 24, 11)],
+            holdout: vec![record(&rubbing, 8, 29)],
+            with_current: true,
+        };
+        let at_floor = scored(&elsewhere, &truth);
+        let holdout_elsewhere = holdout_of(&elsewhere);
+        assert!(at_floor.fit.result.at_noise_floor());
+        assert!(leaves_unexplained(&at_floor, &holdout_elsewhere, None));
+        let (_, refit) = widened_final(
+            &elsewhere,
+            &quiet(),
+            &limit,
+            at_floor,
+            &holdout_elsewhere,
+            None,
+            &|_| {},
         );
+        assert!(refit.is_none());
+        // The current's misfit alone above 1.2 times its noise is unexplained.
+        let mut current_only = stalled.clone();
+        current_only.holdout_rmse = holdout.noise;
+        current_only.holdout_rmse_current = holdout.current_noise.map(|n| 1.3 * n);
+        assert!(leaves_unexplained(&current_only, &holdout, None));
+        current_only.holdout_rmse_current = holdout.current_noise.map(|n| 1.1 * n);
+        assert!(!leaves_unexplained(&current_only, &holdout, None));
 
         // Converged above the floor (a Coulomb friction the model lacks): widened, no
         // better, not taken.
-        let rubbing = truth.with(ParamId::Tc, 0.05);
         let data = Data {
             train: vec![record(&rubbing, 24, 11)],
             holdout: vec![record(&rubbing, 8, 29)],
