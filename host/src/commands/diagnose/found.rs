@@ -4,6 +4,7 @@
 //! effect is significant, which of an extension and its parent the data needs).
 
 use super::data::Scored;
+use super::naming::unpinned_own;
 use super::regimes::WhereReport;
 use super::verdict::{predicts_better, significant, Holdout};
 use super::widening::WidenedRefit;
@@ -129,6 +130,34 @@ pub fn at_limit(chosen: Effect, fit: &Scored) -> Option<Effect> {
     let (lo, hi) = fit.fit.spec.bounds[param.index()];
     let value = fit.fit.result.params.get(param);
     (value <= lo + AT_FLOOR * (hi - lo)).then_some(limit)
+}
+
+/// `effect`, the search's choice at a step with its fit `fit`, as the records show it: the
+/// limit's entry in its place where the fit reached that form ([`at_limit`]) and the limit
+/// `passed` the significance rule at the same step.
+pub fn as_shown(
+    effect: Effect,
+    fit: &Scored,
+    passed: impl Fn(Effect) -> bool,
+    say: &dyn Fn(String),
+) -> Effect {
+    match at_limit(effect, fit).filter(|l| passed(*l)) {
+        Some(limit) => {
+            say(format!("{} at its limit: {}", effect.name(), limit.name()));
+            limit
+        }
+        None => effect,
+    }
+}
+
+/// `effect` with its fit `s` as a rival explanation of the effect the search adds at the
+/// same step ([`LookAlike`]): its held-out (joint) misfit, unless its fit leaves its own
+/// parameters unpinned (with current; [`unpinned_own`]): a form the records do not show is
+/// no explanation to weigh against one they do (static friction whose `ws` slides beside
+/// cogging told its detents, which it matches within 1 % on the held-out records).
+pub fn rival(effect: Effect, s: &Scored, with_current: bool) -> Option<(Effect, f32)> {
+    let shown = !with_current || unpinned_own(effect, &s.fit.result.identifiability).is_empty();
+    shown.then_some((effect, s.holdout_joint))
 }
 
 #[cfg(test)]

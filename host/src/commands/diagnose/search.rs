@@ -10,8 +10,7 @@
 use super::data::{Data, Scored};
 use super::effect_fit::with_effect;
 use super::first_round::{baseline_and_first_round, FirstRound};
-use super::found::{at_limit, LookAlike, Search, StandingIn};
-use super::naming::unpinned_own;
+use super::found::{as_shown, at_limit, rival, LookAlike, Search, StandingIn};
 use super::parallel::in_parallel;
 use super::regime_shares::{misfit_where_named_act, told_apart_where_it_acts};
 use super::search_context::{reduced, Context};
@@ -271,24 +270,6 @@ pub fn search(
     Ok(found)
 }
 
-/// `effect`, the search's choice at a step with its fit `fit`, as the records show it: the
-/// limit's entry in its place where the fit reached that form ([`at_limit`]) and the limit
-/// `passed` the significance rule at the same step.
-fn as_shown(
-    effect: Effect,
-    fit: &Scored,
-    passed: impl Fn(Effect) -> bool,
-    say: &dyn Fn(String),
-) -> Effect {
-    match at_limit(effect, fit).filter(|l| passed(*l)) {
-        Some(limit) => {
-            say(format!("{} at its limit: {}", effect.name(), limit.name()));
-            limit
-        }
-        None => effect,
-    }
-}
-
 /// The final model `fin` of `set` with each effect whose fit has reached its limit's form
 /// ([`at_limit`]) swapped for the limit's entry when that is `usable` (the model without
 /// it, the limit added and everything refitted), where that predicts the held-out records
@@ -436,14 +417,4 @@ fn own_part_alike(
     }
     let chosen = (first, fit.holdout_joint);
     Ok(LookAlike::among(chosen, rivals, &found.holdout).map(|_| parent))
-}
-
-/// `effect` with its fit `s` as a rival explanation of the effect the search adds at the
-/// same step ([`LookAlike`]): its held-out (joint) misfit, unless its fit leaves its own
-/// parameters unpinned (with current; [`unpinned_own`]): a form the records do not show is
-/// no explanation to weigh against one they do (static friction whose `ws` slides beside
-/// cogging told its detents, which it matches within 1 % on the held-out records).
-fn rival(effect: Effect, s: &Scored, with_current: bool) -> Option<(Effect, f32)> {
-    let shown = !with_current || unpinned_own(effect, &s.fit.result.identifiability).is_empty();
-    shown.then_some((effect, s.holdout_joint))
 }
