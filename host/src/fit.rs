@@ -187,26 +187,18 @@ pub fn widen_from(
         false => 1,
     };
     // A record too short for the decimation (or with a coast-down within one block) is
-    // searched whole.
+    // searched whole; none decimated, the records themselves.
     let decimated: Vec<Option<OwnedRecord>> = match k {
         1 => Vec::new(),
         _ => records.iter().map(|r| r.decimated(k)).collect(),
     };
-    let k = match decimated.iter().any(Option::is_some) {
-        true => k,
-        false => 1,
-    };
-    let coarse: Vec<OwnedRecord> = match k {
-        1 => Vec::new(),
-        _ => decimated
-            .into_iter()
-            .zip(records)
-            .map(|(d, r)| d.unwrap_or_else(|| r.clone()))
-            .collect(),
-    };
-    let searched = match k {
-        1 => records,
-        _ => &coarse[..],
+    let coarse: Option<Vec<OwnedRecord>> = decimated.iter().any(Option::is_some).then(|| {
+        let pairs = decimated.into_iter().zip(records);
+        pairs.map(|(d, r)| d.unwrap_or_else(|| r.clone())).collect()
+    });
+    let (searched, k) = match &coarse {
+        Some(c) => (&c[..], k),
+        None => (records, 1),
     };
     let pipeline = IdentifyConfig::default_pipeline(opts.seed);
     let Some((ffo, seed)) = pipeline.wider(0) else {

@@ -1,6 +1,7 @@
 //! Tests of the fits' wrappers: the widened search.
 
 use super::*;
+use motor_id_shared::fit::objective::Cost;
 use motor_id_shared::model::sim::{InitialState, Simulator};
 use motor_id_shared::ParamId;
 
@@ -13,21 +14,32 @@ pub fn rippled() -> ModelParams {
         .with(ParamId::RipplePhase, 1.0)
 }
 
-/// `seconds` at 1 kHz of `p` driven by a square wave of 24 V and 6 V with a 2 s period,
-/// with a little deterministic noise on both readings (of the generator seeded `seed`).
-pub fn record(p: &ModelParams, seconds: usize, seed: u32) -> OwnedRecord {
-    let (dt, n) = (1e-3f32, 1000 * seconds);
-    let v: Vec<f32> = (0..n)
+/// The test records' input at 1 kHz, `n` samples: 24 V and 6 V in turn, 1 s each.
+pub fn square_wave(n: usize) -> Vec<f32> {
+    (0..n)
         .map(|k| if (k / 1000) % 2 == 0 { 24.0 } else { 6.0 })
-        .collect();
-    let mut sim = Simulator::new(p, dt, InitialState::REST).unwrap();
-    let mut x: u32 = seed.max(1);
-    let mut noise = |scale: f32| {
+        .collect()
+}
+
+/// Deterministic noise for test readings: a draw uniform within `±scale` at each call, from
+/// the xorshift generator seeded `seed` (0 taken as 1).
+pub fn noise(seed: u32) -> impl FnMut(f32) -> f32 {
+    let mut x = seed.max(1);
+    move |scale| {
         x ^= x << 13;
         x ^= x >> 17;
         x ^= x << 5;
         scale * ((x % 2001) as f32 / 1000.0 - 1.0)
-    };
+    }
+}
+
+/// `seconds` at 1 kHz of `p` driven by the [`square_wave`], with a little deterministic
+/// [`noise`] on both readings (of the generator seeded `seed`).
+pub fn record(p: &ModelParams, seconds: usize, seed: u32) -> OwnedRecord {
+    let (dt, n) = (1e-3f32, 1000 * seconds);
+    let v = square_wave(n);
+    let mut sim = Simulator::new(p, dt, InitialState::REST).unwrap();
+    let mut noise = noise(seed);
     let (mut omega, mut current) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for &volts in &v {
         let y = sim.reading();
@@ -73,6 +85,45 @@ pub fn quiet() -> FitOptions {
     }
 }
 
+/// Least squares alone from `start` stays above `stall` times the misfit of a refit from
+/// the truth `truth` (`misfit` of a fit's cost); the search of `alone` widened (`decimate`d,
+/// by `decimation`) refits `spec` to within 1 % of it. The widened fit.
+#[allow(clippy::too_many_arguments)]
+fn widened_past_a_stall(
+    records: &[OwnedRecord],
+    (spec, alone): (&ProblemSpec, &ProblemSpec),
+    (truth, start): (&ModelParams, &ModelParams),
+    (decimate, decimation): (bool, usize),
+    misfit: fn(&Cost) -> f32,
+    stall: f32,
+) -> Identification {
+    let at_truth = misfit(
+        &refit_from(records, &quiet(), spec, truth)
+            .unwrap()
+            .result
+            .cost,
+    );
+    let stalled = misfit(
+        &refit_from(records, &quiet(), spec, start)
+            .unwrap()
+            .result
+            .cost,
+    );
+    assert!(
+        stalled > stall * at_truth,
+        "least squares alone should stall: {stalled} against {at_truth}"
+    );
+    let widened = widen_from(records, &quiet(), alone, spec, start, decimate).unwrap();
+    assert_eq!(widened.decimation, decimation);
+    let found = widened.fit.expect("the search gained: refitted").result;
+    let reached = misfit(&found.cost);
+    assert!(
+        reached < 1.01 * at_truth,
+        "the widened search should reach the truth's basin: {reached} against {at_truth}"
+    );
+    found
+}
+
 #[test]
 fn a_widened_search_leaves_a_ridge_least_squares_stays_on() {
     // A ripple started half a turn off its phase: least squares alone sits on the ridge
@@ -89,26 +140,14 @@ fn a_widened_search_leaves_a_ridge_least_squares_stays_on() {
     );
     spec.fix(ParamId::RippleCycles, 8.0).unwrap();
     alone.fix(ParamId::RippleCycles, 8.0).unwrap();
-    let at_truth = refit_from(&records, &quiet(), &spec, &truth)
-        .unwrap()
-        .result;
-    let stalled = refit_from(&records, &quiet(), &spec, &start)
-        .unwrap()
-        .result;
-    assert!(
-        stalled.cost.rmse_omega > 10.0 * at_truth.cost.rmse_omega,
-        "least squares from the ridge should stall: speed rmse {} against {}",
-        stalled.cost.rmse_omega,
-        at_truth.cost.rmse_omega
-    );
-    let widened = widen_from(&records, &quiet(), &alone, &spec, &start, false).unwrap();
-    assert_eq!(widened.decimation, 1);
-    let found = widened.fit.expect("the search gained: refitted").result;
-    assert!(
-        found.cost.rmse_omega < 1.01 * at_truth.cost.rmse_omega,
-        "the widened search should reach the truth's basin: speed rmse {} against {}",
-        found.cost.rmse_omega,
-        at_truth.cost.rmse_omega
+    // On every sample: the speed's misfit 10 times the truth's from the ridge.
+    let found = widened_past_a_stall(
+        &records,
+        (&spec, &alone),
+        (&truth, &start),
+        (false, 1),
+        |c| c.rmse_omega,
+        10.0,
     );
     let amp = found.params.get(ParamId::RippleAmp);
     assert!((amp - 0.05).abs() < 0.005, "ripple amplitude {amp}");
@@ -123,27 +162,14 @@ fn a_widened_search_on_decimated_records_finds_a_limit_least_squares_cannot_see(
     let records = [record(&truth, 24, 11)];
     let start = truth.with(ParamId::Imax, 30.0);
     let (spec, alone) = problem_of(&[(ParamId::Imax, 0.5, 40.0)], &start);
-    let at_truth = refit_from(&records, &quiet(), &spec, &truth)
-        .unwrap()
-        .result;
-    let stalled = refit_from(&records, &quiet(), &spec, &start)
-        .unwrap()
-        .result;
-    assert!(
-        stalled.cost.fitness() > 2.0 * at_truth.cost.fitness(),
-        "least squares from an idle limit should stall: {} against {}",
-        stalled.cost.fitness(),
-        at_truth.cost.fitness()
-    );
-    let widened = widen_from(&records, &quiet(), &alone, &spec, &start, true).unwrap();
     // 24,000 samples searched as 8,000.
-    assert_eq!(widened.decimation, 3);
-    let found = widened.fit.expect("the search gained: refitted").result;
-    assert!(
-        found.cost.fitness() < 1.01 * at_truth.cost.fitness(),
-        "the widened search should find the limit: {} against {}",
-        found.cost.fitness(),
-        at_truth.cost.fitness()
+    let found = widened_past_a_stall(
+        &records,
+        (&spec, &alone),
+        (&truth, &start),
+        (true, 3),
+        Cost::fitness,
+        2.0,
     );
     let imax = found.params.get(ParamId::Imax);
     assert!((imax - 10.0).abs() < 0.1, "imax {imax}");

@@ -164,21 +164,11 @@ impl RecordReader {
             );
         }
         let coast_from = coast_row.map(|r| samples.coast_from(r)).transpose()?;
-        let (t0, dt) = match k {
+        let time = match k {
             1 => (times.first(), dt),
             _ => decimated_time(times.first(), times.mean_step(), k),
         };
-        let rec = OwnedRecord {
-            path: path.to_path_buf(),
-            t0,
-            dt,
-            v: samples.v,
-            omega: samples.omega,
-            current: samples.current,
-            load: samples.load,
-            coast_from,
-            averaged,
-        };
+        let rec = samples.into_record(path.to_path_buf(), time, coast_from, averaged);
         rec.as_record(true).validate().map_err(|e| anyhow!("{e}"))?;
         Ok(rec)
     }

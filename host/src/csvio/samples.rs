@@ -162,6 +162,28 @@ impl Samples {
         }
     }
 
+    /// The record of these samples, from `path`, its first sample at `t0` [s] and
+    /// stepping `dt` [s], coasting from `coast_from`, each reading the mean of `averaged`.
+    pub fn into_record(
+        self,
+        path: std::path::PathBuf,
+        (t0, dt): (f64, f32),
+        coast_from: Option<usize>,
+        averaged: u32,
+    ) -> super::OwnedRecord {
+        super::OwnedRecord {
+            path,
+            t0,
+            dt,
+            v: self.v,
+            omega: self.omega,
+            current: self.current,
+            load: self.load,
+            coast_from,
+            averaged,
+        }
+    }
+
     /// The first sample of a coast-down whose first open row is `row`: with decimation,
     /// the first sample whose step lies mostly after that row's start.
     pub fn coast_from(&self, row: usize) -> Result<usize> {
@@ -218,21 +240,12 @@ impl super::OwnedRecord {
         if samples.len() < motor_id_shared::model::record::MIN_SAMPLES {
             return None;
         }
-        let coast_from = match self.coast_from {
-            Some(row) => Some(samples.coast_from(row).ok()?),
-            None => None,
-        };
+        let coast_from = self
+            .coast_from
+            .map(|row| samples.coast_from(row))
+            .transpose()
+            .ok()?;
         let (t0, dt) = decimated_time(self.t0, self.dt as f64, k);
-        Some(super::OwnedRecord {
-            path: self.path.clone(),
-            t0,
-            dt,
-            v: samples.v,
-            omega: samples.omega,
-            current: samples.current,
-            load: samples.load,
-            coast_from,
-            averaged: self.averaged,
-        })
+        Some(samples.into_record(self.path.clone(), (t0, dt), coast_from, self.averaged))
     }
 }

@@ -213,6 +213,7 @@ pub fn drifts(data: &Data, final_fit: &Fit, opts: &FitOptions) -> Result<Vec<Dri
 mod tests {
     use super::*;
     use crate::fit::fit_spec;
+    use crate::fit::tests::{noise, square_wave};
     use motor_id_shared::model::sim::{InitialState, Simulator};
 
     /// A 40 s record at 1 kHz of a motor whose Ra rises linearly by `rise` (a share) from
@@ -221,9 +222,7 @@ mod tests {
     fn warming_record(rise: f32) -> OwnedRecord {
         let (dt, n, piece) = (1e-3f32, 40_000usize, 100usize);
         let base = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let v: Vec<f32> = (0..n)
-            .map(|k| if (k / 1000) % 2 == 0 { 24.0 } else { 6.0 })
-            .collect();
+        let v = square_wave(n);
         let (mut omega, mut current) = (Vec::with_capacity(n), Vec::with_capacity(n));
         let mut state = InitialState::REST;
         for start in (0..n).step_by(piece) {
@@ -243,13 +242,7 @@ mod tests {
             };
         }
         // A little deterministic noise, so that the fits have a noise to measure.
-        let mut x: u32 = 7;
-        let mut noise = |scale: f32| {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            scale * ((x % 2001) as f32 / 1000.0 - 1.0)
-        };
+        let mut noise = noise(7);
         omega.iter_mut().for_each(|w| *w += noise(0.05));
         current.iter_mut().for_each(|i| *i += noise(0.01));
         OwnedRecord {

@@ -178,6 +178,27 @@ mod tests {
     use motor_id_shared::fit::space::ProblemSpec;
     use motor_id_shared::{ModelParams, ParamId};
 
+    /// A training record of `train` and a held-out one of `held`, with current, each of
+    /// the length given [s].
+    fn data_of(train: &ModelParams, held: &ModelParams, (long, held_long): (usize, usize)) -> Data {
+        Data {
+            train: vec![record(train, long, 11)],
+            holdout: vec![record(held, held_long, 29)],
+            with_current: true,
+        }
+    }
+
+    /// [`widened_final`] with the tests' options, silent.
+    fn widened(
+        data: &Data,
+        set: &[Effect],
+        fin: Scored,
+        holdout: &Holdout,
+        floor: Option<f32>,
+    ) -> (Scored, Option<WidenedRefit>) {
+        widened_final(data, &quiet(), set, fin, holdout, floor, &|_| {})
+    }
+
     /// The held-out scales of `data` as the search measures them (no ripple taken out).
     fn holdout_of(data: &Data) -> Holdout {
         Holdout {
@@ -192,11 +213,7 @@ mod tests {
         // A drive's current limit of 10 A; the final model's fit left it at 30 A, above
         // every current of the records, where its gradient is zero.
         let truth = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08).with(ParamId::Imax, 10.0);
-        let data = Data {
-            train: vec![record(&truth, 24, 11)],
-            holdout: vec![record(&truth, 8, 29)],
-            with_current: true,
-        };
+        let data = data_of(&truth, &truth, (24, 8));
         let holdout = holdout_of(&data);
         let mut spec = ProblemSpec::default();
         spec.set_bounds(ParamId::Imax, 0.5, 40.0).unwrap();
@@ -208,15 +225,7 @@ mod tests {
         let stalled = scored(&data, &truth.with(ParamId::Imax, 30.0));
         let limit = [Effect::CurrentLimit];
         assert!(leaves_unexplained(&stalled, &holdout, None));
-        let (fin, refit) = widened_final(
-            &data,
-            &quiet(),
-            &limit,
-            stalled.clone(),
-            &holdout,
-            None,
-            &|_| {},
-        );
+        let (fin, refit) = widened(&data, &limit, stalled.clone(), &holdout, None);
         let refit = refit.expect("widened");
         assert!(refit.taken, "{refit:?}");
         assert_eq!(
@@ -237,17 +246,9 @@ mod tests {
         // No effect named (the baseline's own fit has the escalation), or a model the
         // repeatability floor explains: not widened.
         let none: [Effect; 0] = [];
-        assert!(widened_final(
-            &data,
-            &quiet(),
-            &none,
-            stalled.clone(),
-            &holdout,
-            None,
-            &|_| {}
-        )
-        .1
-        .is_none());
+        assert!(widened(&data, &none, stalled.clone(), &holdout, None)
+            .1
+            .is_none());
         // The speed's misfit against a repeatability floor that explains it (the current's
         // left out): not unexplained, and not widened.
         let speed_only = Holdout {
@@ -257,37 +258,17 @@ mod tests {
         let floor = Some(stalled.holdout_rmse);
         assert!(leaves_unexplained(&stalled, &speed_only, None));
         assert!(!leaves_unexplained(&stalled, &speed_only, floor));
-        let (kept, refit) = widened_final(
-            &data,
-            &quiet(),
-            &limit,
-            stalled.clone(),
-            &speed_only,
-            floor,
-            &|_| {},
-        );
+        let (kept, refit) = widened(&data, &limit, stalled.clone(), &speed_only, floor);
         assert!(refit.is_none() && kept.holdout_rmse == stalled.holdout_rmse);
         // Trained to its noise floor (held out on another motor's records, which it leaves
         // unexplained): not widened.
         let rubbing = truth.with(ParamId::Tc, 0.05);
-        let elsewhere = Data {
-            train: vec![record(&truth, 24, 11)],
-            holdout: vec![record(&rubbing, 8, 29)],
-            with_current: true,
-        };
+        let elsewhere = data_of(&truth, &rubbing, (24, 8));
         let at_floor = scored(&elsewhere, &truth);
         let holdout_elsewhere = holdout_of(&elsewhere);
         assert!(at_floor.fit.result.at_noise_floor());
         assert!(leaves_unexplained(&at_floor, &holdout_elsewhere, None));
-        let (_, refit) = widened_final(
-            &elsewhere,
-            &quiet(),
-            &limit,
-            at_floor,
-            &holdout_elsewhere,
-            None,
-            &|_| {},
-        );
+        let (_, refit) = widened(&elsewhere, &limit, at_floor, &holdout_elsewhere, None);
         assert!(refit.is_none());
         // The current's misfit alone above 1.2 times its noise is unexplained.
         let mut current_only = stalled.clone();
@@ -299,16 +280,11 @@ mod tests {
 
         // Converged above the floor (a Coulomb friction the model lacks): widened, no
         // better, not taken.
-        let data = Data {
-            train: vec![record(&rubbing, 24, 11)],
-            holdout: vec![record(&rubbing, 8, 29)],
-            with_current: true,
-        };
+        let data = data_of(&rubbing, &rubbing, (24, 8));
         let converged = scored(&data, &truth);
         let holdout = holdout_of(&data);
         let before = converged.holdout_rmse;
-        let (fin, refit) =
-            widened_final(&data, &quiet(), &limit, converged, &holdout, None, &|_| {});
+        let (fin, refit) = widened(&data, &limit, converged, &holdout, None);
         let refit = refit.expect("widened");
         assert!(!refit.taken && fin.holdout_rmse == before, "{refit:?}");
         assert!(refit.line().contains("the model's, not the search's"));
@@ -319,11 +295,7 @@ mod tests {
         // The ripple's fit started half a turn off its phase: least squares took its
         // amplitude to zero. Widened on every sample (a block's mean hides the ripple).
         let truth = rippled();
-        let data = Data {
-            train: vec![record(&truth, 12, 11)],
-            holdout: vec![record(&truth, 6, 29)],
-            with_current: true,
-        };
+        let data = data_of(&truth, &truth, (12, 6));
         let holdout = holdout_of(&data);
         let mut spec = ProblemSpec::default();
         spec.fix(ParamId::RippleCycles, 8.0).unwrap();
@@ -335,15 +307,7 @@ mod tests {
         let fit = refit_from(&data.train, &quiet(), &spec, &start).unwrap();
         let stalled = data.score(fit).unwrap();
         let ripple = [Effect::TachoRipple];
-        let (fin, refit) = widened_final(
-            &data,
-            &quiet(),
-            &ripple,
-            stalled.clone(),
-            &holdout,
-            None,
-            &|_| {},
-        );
+        let (fin, refit) = widened(&data, &ripple, stalled.clone(), &holdout, None);
         let refit = refit.expect("widened");
         assert!(refit.taken && refit.decimation == 1, "{refit:?}");
         assert!(
