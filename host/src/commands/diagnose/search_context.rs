@@ -23,13 +23,18 @@ pub(super) struct Context<'a> {
 
 impl Context<'_> {
     /// The user's problem with every effect of `set` free (and what each extends), the
-    /// fixed values taken from `start`.
+    /// fixed values taken from `start`. Whether the user fixed a parameter is judged on the
+    /// user's own values ([`with_effect`]), not on `start`'s: an effect's fitted value there
+    /// is no fix of the user's (taken for one, every effect of a refitted model was held at
+    /// the final fit's values, and an entry whose parameters were all held had nothing to
+    /// fit: `diagnose` stopped with "every parameter is fixed").
     pub(super) fn spec_of(&self, set: &[Effect], start: &ModelParams) -> Result<ProblemSpec> {
         let mut s = self.spec;
-        s.base = *start;
         for e in set {
+            s.base = self.spec.base;
             s = with_effect(&s, *e, start, &self.scales, &self.peaks)?;
         }
+        s.base = *start;
         Ok(s)
     }
 
@@ -107,6 +112,54 @@ pub(super) fn reduced(set: &[Effect], effect: Effect, without: &[Effect]) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::commands::diagnose::spectrum::OrderPeak;
+    use crate::fit::tests::{quiet, record};
+    use motor_id_shared::ParamId;
+
+    /// A context on one record of `motor` for the user's problem `spec`.
+    fn context(data: &Data, spec: ProblemSpec, motor: ModelParams) -> Context<'_> {
+        Context {
+            data,
+            quiet: quiet(),
+            spec,
+            base_params: motor,
+            scales: data.scales(&motor),
+            peaks: Peaks {
+                ripple: OrderPeak::NONE,
+                detents: None,
+                cogging: OrderPeak::NONE,
+            },
+        }
+    }
+
+    #[test]
+    fn a_refitted_model_frees_its_effects_fitted_values_and_keeps_the_user_s_fixes() {
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        let data = Data {
+            train: vec![record(&motor, 1, 3)],
+            holdout: vec![record(&motor, 1, 5)],
+            with_current: true,
+        };
+        // A start from a fit that holds static friction: its Coulomb part, break-away and
+        // scale all away from their defaults.
+        let start = motor
+            .with(ParamId::Tc, 0.05)
+            .with(ParamId::Ts, 0.03)
+            .with(ParamId::Ws, 20.0);
+        let cx = context(&data, ProblemSpec::default(), motor);
+        let spec = cx.spec_of(&[Effect::StaticFriction], &start).unwrap();
+        for id in [ParamId::Tc, ParamId::Ts, ParamId::Ws] {
+            assert!(spec.free[id.index()], "{} held", id.name());
+        }
+        assert_eq!(spec.base, start);
+        // The same effect when the user fixed its Coulomb torque: that value stays fixed.
+        let mut fixed = ProblemSpec::default();
+        fixed.fix(ParamId::Tc, 0.05).unwrap();
+        let cx = context(&data, fixed, motor);
+        let spec = cx.spec_of(&[Effect::StaticFriction], &start).unwrap();
+        assert!(!spec.free[ParamId::Tc.index()]);
+        assert!(spec.free[ParamId::Ts.index()] && spec.free[ParamId::Ws.index()]);
+    }
 
     #[test]
     fn a_model_holds_an_effect_itself_or_through_an_extension() {
