@@ -590,3 +590,28 @@ fn a_quiet_tachos_delay_of_half_a_sample_is_named_at_5_and_10_khz() {
         );
     }
 }
+
+#[test]
+fn a_look_alike_weighed_inside_the_rest_of_the_model_is_refitted_with_it() {
+    // Static friction beside a quiet tacho's ripple (the blind harness' case): Coulomb
+    // friction passed the rule beside the ripple at the first step, so that it is weighed in
+    // the ripple's place on the final model, where static friction holds its one parameter.
+    // The model without the ripple must free the fitted Coulomb torque, not hold it as if the
+    // user had fixed it: held, Coulomb friction had nothing to fit and `diagnose` stopped
+    // ("every parameter is fixed: nothing to identify").
+    let dir = tempfile::tempdir().unwrap();
+    let o = motor_id_tests::blind::check_without(
+        dir.path(),
+        &["static", "ripple"],
+        5000.0,
+        1,
+        &[],
+        Some(0.05),
+    );
+    assert_eq!(
+        o.named.iter().collect::<Vec<_>>(),
+        ["static_friction", "tacho_ripple"],
+        "{}",
+        o.verdict
+    );
+}
