@@ -615,3 +615,31 @@ fn a_look_alike_weighed_inside_the_rest_of_the_model_is_refitted_with_it() {
         o.verdict
     );
 }
+
+#[test]
+fn a_ripple_beside_a_current_limit_takes_its_order_from_the_limited_model_s_residual() {
+    // A quiet tacho's ripple (14 per revolution) beside a drive's current limit (the blind
+    // harness' case): the baseline's residual is the limit's misfit (24 rad/s), whose order
+    // spectrum peaks at 17, and a ripple held there fits nothing. Its order is taken again
+    // from the residual of the model with the limit.
+    let dir = tempfile::tempdir().unwrap();
+    let o = motor_id_tests::blind::check_without(
+        dir.path(),
+        &["ripple", "limit"],
+        5000.0,
+        1,
+        &[],
+        Some(0.05),
+    );
+    let v = &o.verdict;
+    assert_eq!(
+        o.named.iter().collect::<Vec<_>>(),
+        ["current_limit", "tacho_ripple"],
+        "{v}"
+    );
+    assert_eq!(
+        v["params"]["ripple_cycles"].as_f64(),
+        Some(o.truth.ripple_cycles),
+        "{v}"
+    );
+}

@@ -8,7 +8,7 @@
 //! final model without it.
 
 use super::data::{Data, Scored};
-use super::effect_fit::with_effect;
+use super::effect_fit::{with_effect, Peaks};
 use super::first_round::{baseline_and_first_round, FirstRound};
 use super::found::{as_shown, at_limit, rival, LookAlike, Search, StandingIn};
 use super::parallel::in_parallel;
@@ -150,6 +150,14 @@ pub fn search(
             .copied()
             .filter(|e| !in_model.contains(e) && adds(e) && !passed_over.contains(e))
             .collect();
+        // A ripple's or cogging's order and start come from the residual of the model it is
+        // added to: the baseline's can be another effect's (a current limit's misfit, 24
+        // rad/s, put a 14-cycle ripple's peak at 17).
+        let reads_angle = |e: &Effect| matches!(e, Effect::TachoRipple | Effect::Cogging);
+        let step = match candidates.iter().any(reads_angle) {
+            true => cx.at_peaks(Peaks::of(&cx.data.traces(&params)?, &spec)),
+            false => cx.at_peaks(peaks),
+        };
         let fits = in_parallel(candidates.len(), |k| {
             let effect = candidates[k];
             say(format!(
@@ -157,7 +165,7 @@ pub fn search(
                 effect.name(),
                 names.join(" + ")
             ));
-            cx.add(&model, effect, &params)
+            step.add(&model, effect, &params)
         });
         let mut passing: Vec<(Effect, Scored)> = Vec::new();
         for (effect, f) in candidates.iter().zip(fits) {
@@ -187,7 +195,7 @@ pub fn search(
             rivals,
             &found.holdout,
         ));
-        model = with_effect(&model, effect, &params, &scales, &peaks)?;
+        model = with_effect(&model, effect, &params, &scales, &step.peaks)?;
         in_model.push(effect);
         chain.push((effect, f));
     }

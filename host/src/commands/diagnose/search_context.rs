@@ -21,7 +21,17 @@ pub(super) struct Context<'a> {
     pub(super) peaks: Peaks,
 }
 
-impl Context<'_> {
+impl<'a> Context<'a> {
+    /// This context with the order peaks `peaks` (of the residual of the model the next
+    /// effects are added to).
+    pub(super) fn at_peaks(&self, peaks: Peaks) -> Context<'a> {
+        Context {
+            quiet: self.quiet.clone(),
+            peaks,
+            ..*self
+        }
+    }
+
     /// The user's problem with every effect of `set` free (and what each extends), the
     /// fixed values taken from `start`. Whether the user fixed a parameter is judged on the
     /// user's own values ([`with_effect`]), not on `start`'s: an effect's fitted value there
