@@ -1,7 +1,8 @@
 //! Blind checks of `motor-id diagnose` (a benchmark, not a test): records of the independent
 //! reference plant (`tests/src/reference_plant/`) with every new catalogue effect alone, every
-//! pair of them and none, at 2, 5 and 10 kHz, speed read by an encoder; each case's motor and
-//! effect sizes drawn from its seed (`tests/src/blind.rs`). Counts how often the effects
+//! pair of them and none, at 2, 5 and 10 kHz, speed read by an encoder (a case with a tacho
+//! ripple or a delay by a quiet tacho, `blind::tacho_noise`); each case's motor and effect
+//! sizes drawn from its seed (`tests/src/blind.rs`). Counts how often the effects
 //! named are exactly the true ones, the false effects on null records and the noise estimate
 //! against the truth.
 //!
@@ -10,15 +11,16 @@
 //! (`null`, `static`, `asymmetric`, `deadtime`, `offset`, `limit`, `cogging` (told its
 //! detents per revolution), `heating` (winding heating, on 40 s reversing cycles), the
 //! withheld `cogging-untold`, a `delay` of the speed reading of 0.5-1 sample, pairs as
-//! `static+offset` or `static+cogging-untold`; `all` also holds the older entries the
-//! encoder can show, `coulomb`, `quadratic`, `reaction` and `brush`, alone and in pairs).
+//! `static+offset` or `static+cogging-untold`; `all` also holds the older entries
+//! `coulomb`, `quadratic`, `reaction`, `brush` and `ripple` (a tacho ripple) alone, in
+//! pairs, beside each newer entry and beside a delay).
 //! CASES `without` (or `without:limit,cogging`) runs instead each catalogue entry's effect
 //! alone with that entry left out of the search (`--without`): what is named for it (only a
 //! part of the truth may be: the Coulomb friction of static friction), whether the verdict
 //! says unexplained, the partial stand-ins and where the remainder lies.
 //! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
 //! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`, `BLIND_TACHO=S`
-//! reads the speed with a tacho of white noise `S` rad/s instead of the encoder.
+//! reads every case's speed with a tacho of white noise `S` rad/s.
 //! `MOTOR_ID_BIN=PATH` runs that `motor-id` instead of building and running
 //! `target/release/motor-id` (a copy keeps an hour-long run apart from rebuilds).
 
@@ -51,13 +53,12 @@ fn main() {
     // A speed reading delayed by half a sample to one, alone and beside each entry.
     cases.push(vec!["delay"]);
     cases.extend(SINGLES.iter().map(|x| vec![*x, "delay"]));
-    // The older entries the encoder can show (a tacho ripple needs a tacho: `BLIND_TACHO`),
-    // alone, in pairs and beside each newer entry; Coulomb friction not beside its own
-    // extensions, which hold it.
-    let older: Vec<&str> = OLDER.iter().copied().filter(|o| *o != "ripple").collect();
-    for (i, a) in older.iter().enumerate() {
+    // The older entries, alone, in pairs and beside each newer entry; Coulomb friction not
+    // beside its own extensions, which hold it. A case with a tacho ripple or a delay is
+    // read by the quiet tacho (`tacho_noise`), every other by the encoder.
+    for (i, a) in OLDER.iter().enumerate() {
         cases.push(vec![a]);
-        cases.extend(older[i + 1..].iter().map(|b| vec![*a, *b]));
+        cases.extend(OLDER[i + 1..].iter().map(|b| vec![*a, *b]));
         let extends_it = |x: &&str| *a == "coulomb" && matches!(*x, "static" | "asymmetric");
         cases.extend(
             SINGLES
@@ -65,6 +66,7 @@ fn main() {
                 .filter(|x| !extends_it(x))
                 .map(|x| vec![*a, *x]),
         );
+        cases.push(vec![a, "delay"]);
     }
     // Cases named: each `a+b` (or `null`), any entry's case name.
     if let Some(pick) = args.get(2).filter(|a| *a != "all") {
@@ -100,7 +102,7 @@ fn main() {
                     d
                 });
                 let at = kept.as_deref().unwrap_or(dir.path());
-                let o = check_without(at, case, rate, seed, &[], tacho_noise());
+                let o = check_without(at, case, rate, seed, &[], tacho_noise(case));
                 let ok = o.named == expected;
                 eprintln!(
                     "{} @ {rate} Hz seed {seed}: named {:?}{} unexplained {} noise x{:.2} ({:.1} s)",
@@ -177,7 +179,7 @@ fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
                     rate,
                     seed,
                     &[left],
-                    tacho_noise(),
+                    tacho_noise(&[effect]),
                 );
                 let wrong = !o.named.is_subset(&allowed);
                 let stand_ins: Vec<String> = partial_stand_ins(&o.verdict)

@@ -11,7 +11,9 @@ use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::{ModelParams, ParamId};
 
-/// The order spectra's peaks of the baseline's residual that start the angle effects' fits.
+/// The order spectra's peaks of a model's residual (the baseline's, or that of the model an
+/// effect is added to: [`super::search_context::Context::for_adding`]) that start the angle
+/// effects' fits.
 #[derive(Clone, Copy, Debug)]
 pub struct Peaks {
     /// The tacho ripple's ([`Shape::Ripple`]).
@@ -26,7 +28,7 @@ pub struct Peaks {
 }
 
 impl Peaks {
-    /// The peaks of the baseline's residual `traces` for the user's problem `spec`.
+    /// The peaks of a model's residual `traces` for the user's problem `spec`.
     pub fn of(traces: &[Trace], spec: &ProblemSpec) -> Peaks {
         let id = ParamId::CogCycles.index();
         let detents = match spec.free[id] {
@@ -48,8 +50,7 @@ impl Peaks {
 /// `spec` with `effect` free within bounds scaled to `base`, and the effect it extends with
 /// it (user bounds or fixes on their parameters are kept); for the tacho ripple and cogging
 /// the number of cycles is the order found in the residual of the model it is added to
-/// ([`Peaks`]), or the one `base` holds when it was fitted with it, held fixed (the phase
-/// and amplitude are fitted).
+/// ([`Peaks`]), held fixed (the phase and amplitude are fitted).
 pub fn with_effect(
     spec: &ProblemSpec,
     effect: Effect,
@@ -70,11 +71,8 @@ pub fn with_effect(
         let user_fixed = !spec.free[id.index()] && spec.base.get(id) != ModelParams::default_of(id);
         if let Some(order) = order {
             // The user's bounds or value stand (a motor's detents per revolution are on its
-            // datasheet), and a model refitted from a fit that holds the effect keeps the
-            // order it was fitted at (held at `base`'s value); otherwise the order the
-            // residual shows.
-            let fitted = base.get(id) != ModelParams::default_of(id);
-            if spec.free[id.index()] || user_fixed || fitted {
+            // datasheet); otherwise the order the residual shows.
+            if spec.free[id.index()] || user_fixed {
                 continue;
             }
             s.fix(id, order as f32).map_err(|e| anyhow!("{e}"))?;
@@ -144,7 +142,6 @@ pub fn effects_alone(spec: &ProblemSpec, effects: &[Effect], at: &ModelParams) -
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::commands::diagnose::spectrum::OrderPeak;
 
     /// The parameters `spec` leaves free.
     fn free(spec: &ProblemSpec) -> Vec<ParamId> {
@@ -176,37 +173,5 @@ mod tests {
         fixed.free[ParamId::Ts.index()] = false;
         let alone = effects_alone(&fixed, &[Effect::StaticFriction], &at);
         assert_eq!(free(&alone), [ParamId::Tc, ParamId::Ws]);
-    }
-
-    #[test]
-    fn a_ripple_added_takes_the_residual_s_order_and_a_ripple_refitted_keeps_its_own() {
-        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let scales = Scales {
-            v_max: 24.0,
-            omega_max: 130.0,
-            current_max: 24.0,
-            dt: 2e-4,
-        };
-        let peaks = Peaks {
-            ripple: OrderPeak {
-                order: 17,
-                ..OrderPeak::NONE
-            },
-            detents: None,
-            cogging: OrderPeak::NONE,
-        };
-        let order = |spec: &ProblemSpec| {
-            assert!(!spec.free[ParamId::RippleCycles.index()]);
-            spec.base.get(ParamId::RippleCycles)
-        };
-        let user = ProblemSpec::default();
-        // Added to a model that does not hold it: the order the residual shows.
-        let added = with_effect(&user, Effect::TachoRipple, &motor, &scales, &peaks).unwrap();
-        assert_eq!(order(&added), 17.0);
-        // Refitted from a fit that holds it at 14 cycles: those, not the residual's.
-        let fitted = motor.with(ParamId::RippleCycles, 14.0);
-        let refit = with_effect(&user, Effect::TachoRipple, &fitted, &scales, &peaks).unwrap();
-        assert_eq!(order(&refit), 14.0);
-        assert!(refit.free[ParamId::RippleAmp.index()] && refit.free[ParamId::RipplePhase.index()]);
     }
 }

@@ -8,7 +8,7 @@
 //! final model without it.
 
 use super::data::{Data, Scored};
-use super::effect_fit::{with_effect, Peaks};
+use super::effect_fit::with_effect;
 use super::first_round::{baseline_and_first_round, FirstRound};
 use super::found::{as_shown, at_limit, rival, LookAlike, Search, StandingIn};
 use super::parallel::in_parallel;
@@ -150,14 +150,7 @@ pub fn search(
             .copied()
             .filter(|e| !in_model.contains(e) && adds(e) && !passed_over.contains(e))
             .collect();
-        // A ripple's or cogging's order and start come from the residual of the model it is
-        // added to: the baseline's can be another effect's (a current limit's misfit, 24
-        // rad/s, put a 14-cycle ripple's peak at 17).
-        let reads_angle = |e: &Effect| matches!(e, Effect::TachoRipple | Effect::Cogging);
-        let step = match candidates.iter().any(reads_angle) {
-            true => cx.at_peaks(Peaks::of(&cx.data.traces(&params)?, &spec)),
-            false => cx.at_peaks(peaks),
-        };
+        let step = cx.for_adding(&candidates, &params)?;
         let fits = in_parallel(candidates.len(), |k| {
             let effect = candidates[k];
             say(format!(
@@ -339,7 +332,8 @@ fn confirmed(
         let rest = reduced(set, l.effect, without);
         let start = cx.only(&fin.fit.result.params, &rest, &[l.effect]);
         let model = cx.spec_of(&rest, &start)?;
-        cx.add(&model, l.alike, &start)
+        cx.for_adding(&[l.alike], &start)?
+            .add(&model, l.alike, &start)
     });
     let current_noise = holdout.current_noise.filter(|_| cx.data.with_current);
     let final_traces = match pending.is_empty() {
@@ -406,6 +400,7 @@ fn own_part_alike(
         .copied()
         .filter(|e| *e != parent && e.parent() != Some(parent))
         .collect();
+    let on_parent = cx.for_adding(&others, &at)?;
     let fits = in_parallel(others.len(), |k| {
         say(format!(
             "fitting {} on top of {} (against {})",
@@ -413,7 +408,7 @@ fn own_part_alike(
             parent.name(),
             first.name()
         ));
-        cx.add(&model, others[k], &at)
+        on_parent.add(&model, others[k], &at)
     });
     let mut rivals = Vec::new();
     for (e, f) in others.iter().zip(fits) {

@@ -22,18 +22,27 @@ pub(super) struct Context<'a> {
 }
 
 impl<'a> Context<'a> {
-    /// This context with the order peaks `peaks` (of the residual of the model the next
-    /// effects are added to).
-    pub(super) fn at_peaks(&self, peaks: Peaks) -> Context<'a> {
-        Context {
+    /// This context for adding `effects` to the model fitted at `params`: where one of them
+    /// reads the shaft angle (a tacho ripple, cogging), with the order peaks of that model's
+    /// residual, which start its fit and set its order; the baseline's can be another
+    /// effect's (a drive's current limit left 24 rad/s of misfit there, whose spectrum put a
+    /// 14-cycle ripple's peak at 17).
+    pub(super) fn for_adding(&self, effects: &[Effect], params: &ModelParams) -> Result<Self> {
+        let reads_angle = |e: &Effect| matches!(e, Effect::TachoRipple | Effect::Cogging);
+        let peaks = match effects.iter().any(reads_angle) {
+            true => Peaks::of(&self.data.traces(params)?, &self.spec),
+            false => self.peaks,
+        };
+        Ok(Context {
             quiet: self.quiet.clone(),
             peaks,
             ..*self
-        }
+        })
     }
 
     /// The user's problem with every effect of `set` free (and what each extends), the
-    /// fixed values taken from `start`. Whether the user fixed a parameter is judged on the
+    /// fixed values taken from `start` (a ripple's or cogging's order among them: a refit
+    /// keeps the order its fit holds). Whether the user fixed a parameter is judged on the
     /// user's own values ([`with_effect`]), not on `start`'s: an effect's fitted value there
     /// is no fix of the user's (taken for one, every effect of a refitted model was held at
     /// the final fit's values, and an entry whose parameters were all held had nothing to
@@ -169,6 +178,31 @@ mod tests {
         let spec = cx.spec_of(&[Effect::StaticFriction], &start).unwrap();
         assert!(!spec.free[ParamId::Tc.index()]);
         assert!(spec.free[ParamId::Ts.index()] && spec.free[ParamId::Ws.index()]);
+    }
+
+    #[test]
+    fn a_refitted_ripple_keeps_the_order_its_fit_holds() {
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        let data = Data {
+            train: vec![record(&motor, 1, 3)],
+            holdout: vec![record(&motor, 1, 5)],
+            with_current: true,
+        };
+        let mut cx = context(&data, ProblemSpec::default(), motor);
+        // The baseline's residual peaked at 17 cycles; the ripple was fitted at 14.
+        cx.peaks.ripple.order = 17;
+        let start = motor
+            .with(ParamId::RippleCycles, 14.0)
+            .with(ParamId::RippleAmp, 0.03);
+        for set in [
+            vec![Effect::TachoRipple],
+            vec![Effect::TachoRipple, Effect::StaticFriction],
+        ] {
+            let spec = cx.spec_of(&set, &start).unwrap();
+            assert!(!spec.free[ParamId::RippleCycles.index()]);
+            assert_eq!(spec.base.get(ParamId::RippleCycles), 14.0, "{set:?}");
+            assert!(spec.free[ParamId::RippleAmp.index()]);
+        }
     }
 
     #[test]
