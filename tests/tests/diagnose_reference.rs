@@ -319,14 +319,31 @@ fn a_coulomb_friction_beside_a_fan_load_is_not_taken_for_static_friction() {
     // speeds, with a larger viscous B, bent the friction's curve like the fan load and was
     // named alone; the fan load, tried on top of it, added nothing. The search now weighs
     // an extension chosen first against each entry beside the friction it extends, and
-    // goes on from the Coulomb friction where one predicts as well: both are named.
-    let both: std::collections::BTreeSet<String> = ["coulomb_friction", "quadratic_load"]
-        .map(String::from)
-        .into();
-    for seed in [1, 2] {
+    // goes on from the Coulomb friction where one predicts as well: static friction is
+    // never named. Seed 2 names both. On seed 1 static friction in the fan load's place,
+    // refitted with its Coulomb torque free, predicts the held-out records within 1.2 %
+    // (0.6503 against 0.6424 rad/s, under the encoder's noise): the records do not tell
+    // the two forms apart, so the fan load is a labelled partial stand-in, not a cause.
+    let names = |n: &[&str]| -> std::collections::BTreeSet<String> {
+        n.iter().map(|x| x.to_string()).collect()
+    };
+    for (seed, named) in [
+        (1, vec!["coulomb_friction"]),
+        (2, vec!["coulomb_friction", "quadratic_load"]),
+    ] {
         let dir = tempfile::tempdir().unwrap();
         let o = motor_id_tests::blind::check(dir.path(), &["coulomb", "quadratic"], 2000.0, seed);
-        assert_eq!(o.named, both, "seed {seed}");
+        let v = &o.verdict;
+        assert_eq!(o.named, names(&named), "seed {seed}: {v}");
+        assert_eq!(o.unexplained, named.len() == 1, "seed {seed}: {v}");
+        if named.len() == 1 {
+            let stand_ins = motor_id_tests::partial_stand_ins(v);
+            assert!(
+                stand_ins.iter().any(|(name, why)| name == "quadratic_load"
+                    && why.contains("with static_friction in its place")),
+                "seed {seed}: {v}"
+            );
+        }
     }
 }
 
