@@ -47,17 +47,7 @@ pub fn record(p: &ModelParams, seconds: usize, seed: u32) -> OwnedRecord {
         current.push(y.current + noise(0.01));
         sim.advance(volts, 0.0);
     }
-    OwnedRecord {
-        path: "rippled.csv".into(),
-        t0: 0.0,
-        dt,
-        v,
-        omega,
-        current: Some(current),
-        load: None,
-        coast_from: None,
-        averaged: 1,
-    }
+    OwnedRecord::readings("rippled.csv", dt, v, omega, Some(current))
 }
 
 /// The motor of `p` free with the parameters `own` free within their bounds `lo..hi`, and

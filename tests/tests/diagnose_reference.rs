@@ -3,6 +3,7 @@
 //! catalogue, the same friction with its entry left out owned up to as an unexplained
 //! remainder where it lives, and an encoder's records without an effect left alone.
 
+use motor_id_tests::blind;
 use motor_id_tests::reference_plant::{
     csv, experiment, run, Effects, Motor, Sensors, Shape, SpeedSensor,
 };
@@ -70,6 +71,12 @@ fn sticky() -> Effects {
         ws: 8.0,
         ..Effects::default()
     }
+}
+
+/// Case `names` of the blind harness at `rate` and `seed`, read by the quiet tacho that shows
+/// a tacho's own effects ([`blind::QUIET_TACHO`]), diagnosed in `dir`.
+fn on_a_quiet_tacho(dir: &Path, names: &[&str], rate: f64, seed: u64) -> blind::Outcome {
+    blind::check_without(dir, names, rate, seed, &[], Some(blind::QUIET_TACHO))
 }
 
 #[test]
@@ -584,14 +591,7 @@ fn a_quiet_tachos_delay_of_half_a_sample_is_named_at_5_and_10_khz() {
     // channel it acts on (three of the blind harness' cases, none of them named before).
     for (rate, seed) in [(5000.0, 1), (10000.0, 1), (10000.0, 2)] {
         let dir = tempfile::tempdir().unwrap();
-        let o = motor_id_tests::blind::check_without(
-            dir.path(),
-            &["delay"],
-            rate,
-            seed,
-            &[],
-            Some(0.05),
-        );
+        let o = on_a_quiet_tacho(dir.path(), &["delay"], rate, seed);
         let v = &o.verdict;
         assert_eq!(
             o.named.iter().collect::<Vec<_>>(),
@@ -617,14 +617,7 @@ fn a_look_alike_weighed_inside_the_rest_of_the_model_is_refitted_with_it() {
     // user had fixed it: held, Coulomb friction had nothing to fit and `diagnose` stopped
     // ("every parameter is fixed: nothing to identify").
     let dir = tempfile::tempdir().unwrap();
-    let o = motor_id_tests::blind::check_without(
-        dir.path(),
-        &["static", "ripple"],
-        5000.0,
-        1,
-        &[],
-        Some(0.05),
-    );
+    let o = on_a_quiet_tacho(dir.path(), &["static", "ripple"], 5000.0, 1);
     assert_eq!(
         o.named.iter().collect::<Vec<_>>(),
         ["static_friction", "tacho_ripple"],
@@ -640,14 +633,7 @@ fn a_ripple_beside_a_current_limit_takes_its_order_from_the_limited_model_s_resi
     // spectrum peaks at 17, and a ripple held there fits nothing. Its order is taken again
     // from the residual of the model with the limit.
     let dir = tempfile::tempdir().unwrap();
-    let o = motor_id_tests::blind::check_without(
-        dir.path(),
-        &["ripple", "limit"],
-        5000.0,
-        1,
-        &[],
-        Some(0.05),
-    );
+    let o = on_a_quiet_tacho(dir.path(), &["ripple", "limit"], 5000.0, 1);
     let v = &o.verdict;
     assert_eq!(
         o.named.iter().collect::<Vec<_>>(),

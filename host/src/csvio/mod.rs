@@ -50,6 +50,29 @@ pub struct OwnedRecord {
 }
 
 impl OwnedRecord {
+    /// A record `name` of samples `dt` apart: the voltage `v`, the speed `omega` and the
+    /// current, when given (for tests: no load, no coast-down, single readings).
+    #[cfg(test)]
+    pub fn readings(
+        name: &str,
+        dt: f32,
+        v: Vec<f32>,
+        omega: Vec<f32>,
+        current: Option<Vec<f32>>,
+    ) -> OwnedRecord {
+        OwnedRecord {
+            path: name.into(),
+            t0: 0.0,
+            dt,
+            v,
+            omega,
+            current,
+            load: None,
+            coast_from: None,
+            averaged: 1,
+        }
+    }
+
     /// Borrow as the core's record; `use_current = false` drops the current column.
     pub fn as_record(&self, use_current: bool) -> Record<'_> {
         Record {

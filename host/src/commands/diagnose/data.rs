@@ -51,16 +51,22 @@ pub fn peak(x: &[f32]) -> f32 {
 /// A record `name` of the voltage `v` and the speed `omega`, 1 ms samples (for tests).
 #[cfg(test)]
 pub fn record(name: &str, v: Vec<f32>, omega: Vec<f32>) -> OwnedRecord {
-    OwnedRecord {
-        path: name.into(),
-        t0: 0.0,
-        dt: 1e-3,
-        v,
-        omega,
-        current: None,
-        load: None,
-        coast_from: None,
-        averaged: 1,
+    OwnedRecord::readings(name, 1e-3, v, omega, None)
+}
+
+/// A training record of `train` and a held-out one of `held` ([`crate::fit::tests::record`],
+/// with current), each of the length given [s] (for tests).
+#[cfg(test)]
+pub fn simulated(
+    train: &motor_id_shared::ModelParams,
+    held: &motor_id_shared::ModelParams,
+    (long, held_long): (usize, usize),
+) -> Data {
+    use crate::fit::tests::record;
+    Data {
+        train: vec![record(train, long, 11)],
+        holdout: vec![record(held, held_long, 29)],
+        with_current: true,
     }
 }
 

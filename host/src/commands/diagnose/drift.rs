@@ -212,6 +212,7 @@ pub fn drifts(data: &Data, final_fit: &Fit, opts: &FitOptions) -> Result<Vec<Dri
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::commands::diagnose::data::record;
     use crate::fit::fit_spec;
     use crate::fit::tests::{noise, square_wave};
     use motor_id_shared::model::sim::{InitialState, Simulator};
@@ -245,17 +246,7 @@ mod tests {
         let mut noise = noise(7);
         omega.iter_mut().for_each(|w| *w += noise(0.05));
         current.iter_mut().for_each(|i| *i += noise(0.01));
-        OwnedRecord {
-            path: "warming.csv".into(),
-            t0: 0.0,
-            dt,
-            v,
-            omega,
-            current: Some(current),
-            load: None,
-            coast_from: None,
-            averaged: 1,
-        }
+        OwnedRecord::readings("warming.csv", dt, v, omega, Some(current))
     }
 
     fn drifts_of(rise: f32) -> Vec<Drift> {
@@ -278,17 +269,8 @@ mod tests {
     fn windows_at_other_operating_points_are_not_compared() {
         // A stair of voltages: the first quarter at 6 V, the last at 24 V.
         let stair: Vec<f32> = (0..4000).map(|k| 6.0 * (1 + k / 1000) as f32).collect();
-        let r = OwnedRecord {
-            path: "stair.csv".into(),
-            t0: 0.0,
-            dt: 1e-3,
-            omega: stair.iter().map(|v| 10.0 * v).collect(),
-            v: stair,
-            current: None,
-            load: None,
-            coast_from: None,
-            averaged: 1,
-        };
+        let omega = stair.iter().map(|v| 10.0 * v).collect();
+        let r = record("stair.csv", stair, omega);
         let w = windows(&r).unwrap();
         assert!(!same_regime(&w[0], &w[3], (span(&r.v), span(&r.omega))));
         // A square wave repeated along the record: the same.

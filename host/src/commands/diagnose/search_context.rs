@@ -131,8 +131,9 @@ pub(super) fn reduced(set: &[Effect], effect: Effect, without: &[Effect]) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::commands::diagnose::data::simulated;
     use crate::commands::diagnose::spectrum::OrderPeak;
-    use crate::fit::tests::{quiet, record};
+    use crate::fit::tests::quiet;
     use motor_id_shared::ParamId;
 
     /// A context on one record of `motor` for the user's problem `spec`.
@@ -154,11 +155,7 @@ mod tests {
     #[test]
     fn a_refitted_model_frees_its_effects_fitted_values_and_keeps_the_user_s_fixes() {
         let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let data = Data {
-            train: vec![record(&motor, 1, 3)],
-            holdout: vec![record(&motor, 1, 5)],
-            with_current: true,
-        };
+        let data = simulated(&motor, &motor, (1, 1));
         // A start from a fit that holds static friction: its Coulomb part, break-away and
         // scale all away from their defaults.
         let start = motor
@@ -183,11 +180,7 @@ mod tests {
     #[test]
     fn a_refitted_ripple_keeps_the_order_its_fit_holds() {
         let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let data = Data {
-            train: vec![record(&motor, 1, 3)],
-            holdout: vec![record(&motor, 1, 5)],
-            with_current: true,
-        };
+        let data = simulated(&motor, &motor, (1, 1));
         let mut cx = context(&data, ProblemSpec::default(), motor);
         // The baseline's residual peaked at 17 cycles; the ripple was fitted at 14.
         cx.peaks.ripple.order = 17;

@@ -173,20 +173,11 @@ fn widen(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::commands::diagnose::data::simulated;
     use crate::fit::refit_from;
-    use crate::fit::tests::{quiet, record, rippled};
+    use crate::fit::tests::{quiet, rippled};
     use motor_id_shared::fit::space::ProblemSpec;
     use motor_id_shared::{ModelParams, ParamId};
-
-    /// A training record of `train` and a held-out one of `held`, with current, each of
-    /// the length given [s].
-    fn data_of(train: &ModelParams, held: &ModelParams, (long, held_long): (usize, usize)) -> Data {
-        Data {
-            train: vec![record(train, long, 11)],
-            holdout: vec![record(held, held_long, 29)],
-            with_current: true,
-        }
-    }
 
     /// [`widened_final`] with the tests' options, silent.
     fn widened(
@@ -213,7 +204,7 @@ mod tests {
         // A drive's current limit of 10 A; the final model's fit left it at 30 A, above
         // every current of the records, where its gradient is zero.
         let truth = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08).with(ParamId::Imax, 10.0);
-        let data = data_of(&truth, &truth, (24, 8));
+        let data = simulated(&truth, &truth, (24, 8));
         let holdout = holdout_of(&data);
         let mut spec = ProblemSpec::default();
         spec.set_bounds(ParamId::Imax, 0.5, 40.0).unwrap();
@@ -263,7 +254,7 @@ mod tests {
         // Trained to its noise floor (held out on another motor's records, which it leaves
         // unexplained): not widened.
         let rubbing = truth.with(ParamId::Tc, 0.05);
-        let elsewhere = data_of(&truth, &rubbing, (24, 8));
+        let elsewhere = simulated(&truth, &rubbing, (24, 8));
         let at_floor = scored(&elsewhere, &truth);
         let holdout_elsewhere = holdout_of(&elsewhere);
         assert!(at_floor.fit.result.at_noise_floor());
@@ -280,7 +271,7 @@ mod tests {
 
         // Converged above the floor (a Coulomb friction the model lacks): widened, no
         // better, not taken.
-        let data = data_of(&rubbing, &rubbing, (24, 8));
+        let data = simulated(&rubbing, &rubbing, (24, 8));
         let converged = scored(&data, &truth);
         let holdout = holdout_of(&data);
         let before = converged.holdout_rmse;
@@ -295,7 +286,7 @@ mod tests {
         // The ripple's fit started half a turn off its phase: least squares took its
         // amplitude to zero. Widened on every sample (a block's mean hides the ripple).
         let truth = rippled();
-        let data = data_of(&truth, &truth, (12, 6));
+        let data = simulated(&truth, &truth, (12, 6));
         let holdout = holdout_of(&data);
         let mut spec = ProblemSpec::default();
         spec.fix(ParamId::RippleCycles, 8.0).unwrap();
