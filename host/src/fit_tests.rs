@@ -5,13 +5,13 @@ use motor_id_shared::fit::objective::Cost;
 use motor_id_shared::model::sim::{InitialState, Simulator};
 use motor_id_shared::ParamId;
 
-/// The motor of the widened search's test: a tacho ripple of 5 % at 8 cycles per
-/// revolution, phase 1 rad.
-pub fn rippled() -> ModelParams {
+/// A motor with cogging of 0.1 N m at 8 per revolution (5 % of its stall torque): a speed
+/// ripple of some 0.1 rad/s at the [`square_wave`]'s low step, 65 rad/s.
+pub fn cogged() -> ModelParams {
     ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08)
-        .with(ParamId::RippleAmp, 0.05)
-        .with(ParamId::RippleCycles, 8.0)
-        .with(ParamId::RipplePhase, 1.0)
+        .with(ParamId::CogAmp, 0.1)
+        .with(ParamId::CogCycles, 8.0)
+        .with(ParamId::CogPhase, 1.0)
 }
 
 /// The test records' input at 1 kHz, `n` samples: 24 V and 6 V in turn, 1 s each.
@@ -116,31 +116,33 @@ fn widened_past_a_stall(
 
 #[test]
 fn a_widened_search_leaves_a_ridge_least_squares_stays_on() {
-    // A ripple started half a turn off its phase: least squares alone sits on the ridge
+    // Cogging started half a turn off its phase: least squares alone sits on the ridge
     // (the phase's gradient vanishes there by symmetry) and takes the amplitude to zero.
-    let truth = rippled();
+    // (A tacho ripple no longer has this ridge: its angle is tracked on the readings,
+    // which pull a phase half a turn off back in.)
+    let truth = cogged();
     let records = [record(&truth, 12, 11)];
-    let start = truth.with(ParamId::RipplePhase, 1.0 + core::f32::consts::PI);
+    let start = truth.with(ParamId::CogPhase, 1.0 + core::f32::consts::PI);
     let (mut spec, mut alone) = problem_of(
         &[
-            (ParamId::RippleAmp, 0.0, 0.2),
-            (ParamId::RipplePhase, 0.0, core::f32::consts::TAU),
+            (ParamId::CogAmp, 0.0, 0.5),
+            (ParamId::CogPhase, 0.0, core::f32::consts::TAU),
         ],
         &start,
     );
-    spec.fix(ParamId::RippleCycles, 8.0).unwrap();
-    alone.fix(ParamId::RippleCycles, 8.0).unwrap();
-    // On every sample: the speed's misfit 10 times the truth's from the ridge.
+    spec.fix(ParamId::CogCycles, 8.0).unwrap();
+    alone.fix(ParamId::CogCycles, 8.0).unwrap();
+    // On every sample: the speed's misfit four times the truth's from the ridge.
     let found = widened_past_a_stall(
         &records,
         (&spec, &alone),
         (&truth, &start),
         (false, 1),
         |c| c.rmse_omega,
-        10.0,
+        4.0,
     );
-    let amp = found.params.get(ParamId::RippleAmp);
-    assert!((amp - 0.05).abs() < 0.005, "ripple amplitude {amp}");
+    let amp = found.params.get(ParamId::CogAmp);
+    assert!((amp - 0.1).abs() < 0.01, "cogging amplitude {amp}");
 }
 
 #[test]

@@ -5,7 +5,7 @@ use crate::error::Error;
 use crate::model::effects::friction::FrictionLaw;
 use crate::model::effects::quadratic_load;
 use crate::model::params::ModelParams;
-use crate::model::sim::{sign, InitialState, Simulator, StepInput};
+use crate::model::sim::{sign, InitialState, MeasuredTacho, Simulator, StepInput};
 use crate::param_id::ParamId;
 
 /// Fewest samples a record may hold.
@@ -84,14 +84,17 @@ impl<'a> Record<'a> {
             .map_or(self.len(), |c| (c + 1).min(self.len()))
     }
 
-    /// What drives the simulation over step `k`; with `track_angle`, the measured speed
+    /// What drives the simulation over step `k`; with `track_angle`, the tacho's readings
     /// over it (for the tacho ripple, see [`crate::model::sim::Simulator::apply`]).
     #[inline(always)]
     pub fn step_input(&self, k: usize, track_angle: bool) -> StepInput {
         StepInput {
             v: self.v[k],
             tl: self.load_at(k),
-            measured_omega: track_angle.then(|| self.angle_rate(k)),
+            measured: track_angle.then(|| MeasuredTacho {
+                rate: self.angle_rate(k),
+                after: self.omega.get(k + 1).copied(),
+            }),
             opens: self.coast_from == Some(k),
         }
     }

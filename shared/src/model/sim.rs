@@ -40,10 +40,20 @@ pub struct StepInput {
     pub v: f32,
     /// Known load torque [N m].
     pub tl: f32,
-    /// Measured rotor speed over the step, for the ripple angle (see [`Simulator::apply`]).
-    pub measured_omega: Option<f32>,
+    /// The tacho's readings over the step, for the ripple angle (see [`Simulator::apply`]).
+    pub measured: Option<MeasuredTacho>,
     /// The bridge opens at the start of this step (the record's coast-down begins).
     pub opens: bool,
+}
+
+/// What the tacho of a record read over one step: the ripple's angle advances by `rate`
+/// and is corrected by the reading `after` ([`Simulator::apply`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeasuredTacho {
+    /// Mean measured speed over the step [rad/s] (the trapezoid of its two readings).
+    pub rate: f32,
+    /// The reading at the step's end [rad/s] (none after a record's last sample).
+    pub after: Option<f32>,
 }
 
 /// Initial condition of a simulation.
@@ -116,15 +126,18 @@ pub struct Simulator {
     friction_only: bool,
     /// The bridge is open (coast-down): no armature current, the voltage is not applied.
     open: bool,
-    /// Newest tacho reading.
+    /// Newest tacho reading; where the ripple's angle follows the readings, the shaft speed
+    /// before the ripple (the tracker holds the reading, `sim_readings.rs`).
     tacho: f32,
     current: Compensated,
     omega: Compensated,
     /// Ripple angle `ripple_cycles * theta`, wrapped to [-pi, pi].
     psi: f32,
-    /// `psi` integrates the measured speed, ripple included ([`Simulator::apply`]): the
-    /// rotor's angle is [`tacho_ripple::rotor_angle`] of it.
+    /// `psi` integrates the measured speed, ripple included, corrected by the readings
+    /// ([`Simulator::apply`]): the rotor's angle is [`tacho_ripple::rotor_angle`] of it.
     psi_from_reading: bool,
+    /// The ripple angle's tracker (host builds only, as `cogging_psi`).
+    angle_tracker: [angle_tracker::AngleTracker; HOST_SLOT],
     /// Cogging angle `cog_cycles * theta`, wrapped to [-pi, pi] (host builds only: a board's
     /// simulator holds no cogging, and is copied too often to carry the slot).
     cogging_psi: [f32; HOST_SLOT],
@@ -209,6 +222,7 @@ impl Simulator {
             omega: Compensated::new(0.0),
             psi: 0.0,
             psi_from_reading: false,
+            angle_tracker: [angle_tracker::AngleTracker::START; HOST_SLOT],
             cogging_psi: [0.0; HOST_SLOT],
             winding_rise: [Compensated::new(0.0); HOST_SLOT],
             // (`from_fn`: a board's empty slot calls nothing.)
@@ -233,6 +247,7 @@ impl Simulator {
         self.omega = Compensated::new(init.omega);
         self.psi = 0.0;
         self.psi_from_reading = false;
+        self.angle_tracker = [angle_tracker::AngleTracker::START; HOST_SLOT];
         self.cogging_psi = [0.0; HOST_SLOT];
         // Each record begins cold (`winding_heating`).
         self.winding_rise = [Compensated::new(0.0); HOST_SLOT];
@@ -310,32 +325,34 @@ impl Simulator {
     /// the bridge opens first if the coast-down starts here, and the rotor angle of the
     /// tacho ripple advances by the *measured* speed when it is given (the ripple follows the
     /// real rotor, whose angle a fit integrating its own, slightly wrong, speed would lose
-    /// after some thousand revolutions). Every loop that simulates a record steps through
-    /// here, so none can miss the coast-down.
+    /// after some thousand revolutions), and is corrected by the reading at the step's end
+    /// (the tracker of `sim_angle_tracker.rs`: the measured speed's noise, integrated, made
+    /// the angle a random walk). Every loop that simulates a record steps through here, so
+    /// none can miss the coast-down.
     #[inline(always)]
     pub fn apply(&mut self, input: &StepInput) {
         if input.opens {
             self.open_circuit();
         }
-        self.step(input.v, input.tl, input.measured_omega);
+        self.step(input.v, input.tl, input.measured);
     }
 
     #[inline(always)]
-    fn step(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
+    fn step(&mut self, v: f32, tl: f32, measured: Option<MeasuredTacho>) {
         if self.plain {
             self.step_plain(v, tl);
         } else {
-            self.step_nonlinear(v, tl, measured_omega);
+            self.step_nonlinear(v, tl, measured);
         }
     }
 
     /// Every step but the plain one: one copy of it in flash, however many fit loops call it.
     #[inline(never)]
-    fn step_nonlinear(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
+    fn step_nonlinear(&mut self, v: f32, tl: f32, measured: Option<MeasuredTacho>) {
         if self.friction_only && !self.shaft_stuck && self.omega.hi.abs() > 0.0 {
             self.step_friction(v, tl);
         } else {
-            self.step_with_effects(v, tl, measured_omega);
+            self.step_with_effects(v, tl, measured);
         }
     }
 
@@ -395,6 +412,8 @@ impl Simulator {
     }
 }
 
+#[path = "sim_angle_tracker.rs"]
+mod angle_tracker;
 #[path = "sim_averaged.rs"]
 mod averaged;
 #[path = "sim_brush_events.rs"]

@@ -4,7 +4,7 @@
 //! step, and by simulating the step again in the drive's steps where it stops, reverses or
 //! breaks away.
 
-use super::{sign, InitialState, Reading, Simulator, StepInput};
+use super::{sign, InitialState, MeasuredTacho, Reading, Simulator, StepInput};
 use crate::capacity::FULL;
 use crate::error::Error;
 use crate::model::compensated::Compensated;
@@ -203,7 +203,7 @@ impl Simulator {
         if input.opens {
             self.open_circuit();
         }
-        self.step_averaged(input.v, input.tl, input.measured_omega);
+        self.step_averaged(input.v, input.tl, input.measured);
     }
 
     /// Whether the loops over `records` take the path of averaged readings
@@ -216,10 +216,10 @@ impl Simulator {
 
     /// [`Simulator::step`] and the mean of the readings over it (averaged readings).
     #[inline(never)]
-    fn step_averaged(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
+    fn step_averaged(&mut self, v: f32, tl: f32, measured: Option<MeasuredTacho>) {
         let start = (self.current.hi, self.omega.hi, self.shaft_stuck);
         self.friction_event = false;
-        self.step(v, tl, measured_omega);
+        self.step(v, tl, measured);
         if let Some(a) = &self.averaged {
             let (coeffs, m) = (a.coeffs, a.m);
             self.average_over_step(&coeffs, m, start, v, tl);

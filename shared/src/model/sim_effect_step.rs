@@ -6,7 +6,7 @@
 //! friction as dead zones, whose stuck state is frozen while the other advances with its
 //! own exact first-order step (see the module doc of [`super`]).
 
-use super::{sign, Simulator};
+use super::{sign, MeasuredTacho, Simulator};
 use crate::capacity::FULL;
 use crate::model::compensated::Compensated;
 use crate::model::effects::{
@@ -64,7 +64,7 @@ fn stick_on_crossing(before: f32, opposition: f32, state: &mut Compensated, stuc
 
 impl Simulator {
     #[inline(never)]
-    pub(super) fn step_with_effects(&mut self, v: f32, tl: f32, measured_omega: Option<f32>) {
+    pub(super) fn step_with_effects(&mut self, v: f32, tl: f32, measured: Option<MeasuredTacho>) {
         let i0 = self.current.hi;
         let w0 = self.omega.hi;
         // The entries' held inputs (armature reaction, bridge dead time, the drive's current
@@ -148,8 +148,8 @@ impl Simulator {
         }
         self.heat_winding_over_the_step(i0);
         if self.tracks_angle() {
-            let rate = measured_omega.unwrap_or(0.5 * (w0 + self.omega.hi));
-            self.psi_from_reading |= measured_omega.is_some();
+            let rate = measured.map_or(0.5 * (w0 + self.omega.hi), |m| m.rate);
+            self.psi_from_reading |= measured.is_some();
             let cycles = self.effect(ParamId::RippleCycles);
             self.psi = tacho_ripple::advance(self.psi, cycles, rate, self.dt);
             let cogging = self.effect(ParamId::CogCycles);
@@ -158,6 +158,9 @@ impl Simulator {
             }
         }
         self.push_reading();
+        if let (true, Some(after)) = (FULL, measured.and_then(|m| m.after)) {
+            self.track_angle(after);
+        }
     }
 
     /// The winding's temperature rise (`winding_heating`, a state of the host's simulator

@@ -10,21 +10,36 @@ use crate::param_id::ParamId;
 
 impl Simulator {
     #[inline(always)]
-    pub(super) fn tacho_now(&self) -> f32 {
+    pub(super) fn push_reading(&mut self) {
         let (amp, phase) = (
             self.effect(ParamId::RippleAmp),
             self.effect(ParamId::RipplePhase),
         );
-        let psi = match FULL && self.psi_from_reading && amp != 0.0 {
-            true => tacho_ripple::rotor_angle(amp, phase, self.psi),
-            false => self.psi,
-        };
-        tacho_ripple::reading(amp, phase, self.omega.hi, psi)
+        if FULL && self.psi_from_reading && amp != 0.0 {
+            return self.push_reading_at_measured_angle(amp, phase);
+        }
+        self.push_tacho(tacho_ripple::reading(amp, phase, self.omega.hi, self.psi));
     }
 
-    #[inline(always)]
-    pub(super) fn push_reading(&mut self) {
-        self.push_tacho(self.tacho_now());
+    /// [`Simulator::push_reading`] when the ripple's angle integrates the record's readings
+    /// ([`Simulator::apply`]): those are as late as the sensor is, so the angle is the
+    /// rotor's of the reading the sensor gives now, and the ripple applies to the shaft
+    /// speed after the delay line (not before, where it would be late twice: 2 rad of the
+    /// ripple's phase for a delay of 3 samples of a 14 per revolution ripple at 240 rad/s,
+    /// 5 kHz). Keeps the reading's slope in the angle for the angle's tracker
+    /// (`sim_angle_tracker.rs`).
+    #[inline(never)]
+    fn push_reading_at_measured_angle(&mut self, amp: f32, phase: f32) {
+        self.push_tacho(self.omega.hi);
+        let late = match self.delayed {
+            false => self.omega.hi,
+            true => self.delay_line(),
+        };
+        let psi = tacho_ripple::rotor_angle(amp, phase, self.psi);
+        let (reading, slope) = tacho_ripple::reading_and_slope(amp, phase, late, psi);
+        if let Some(t) = self.angle_tracker.first_mut() {
+            t.read(reading, slope);
+        }
     }
 
     #[inline(always)]
@@ -38,21 +53,28 @@ impl Simulator {
         }
     }
 
-    fn ring_back(&self, n: usize) -> f32 {
-        let n = n.min(usize::from(self.filled) - 1);
-        self.ring[(usize::from(self.head) + RING - n) % RING]
+    /// The speed the delay line reads now (paper Eq. 4's speed `td` late,
+    /// [`sensor_delay::interpolate`]).
+    fn delay_line(&self) -> f32 {
+        let back = |n: usize| {
+            let n = n.min(usize::from(self.filled) - 1);
+            self.ring[(usize::from(self.head) + RING - n) % RING]
+        };
+        let whole = usize::from(self.delay_whole);
+        sensor_delay::interpolate(back(whole), back(whole + 1), self.delay_frac)
     }
 
     /// What the sensors read now.
     #[inline(always)]
     pub fn reading(&self) -> Reading {
-        let omega = if !self.delayed {
-            self.tacho
-        } else {
-            let whole = usize::from(self.delay_whole);
-            let a = self.ring_back(whole);
-            let b = self.ring_back(whole + 1);
-            sensor_delay::interpolate(a, b, self.delay_frac)
+        let tracked = match FULL && self.psi_from_reading {
+            true => self.angle_tracker.first().and_then(|t| t.reading()),
+            false => None,
+        };
+        let omega = match (tracked, self.delayed) {
+            (Some(reading), _) => reading,
+            (None, false) => self.tacho,
+            (None, true) => self.delay_line(),
         };
         Reading {
             omega,

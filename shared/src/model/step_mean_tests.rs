@@ -113,7 +113,7 @@ fn a_simulation_of_averaged_readings_meets_the_drive_s_mean_with_friction_and_co
     let input = |k: usize| StepInput {
         v: v[k],
         tl: 0.0,
-        measured_omega: None,
+        measured: None,
         opens: k == coast,
     };
     let mut sim = Simulator::for_record(&p, &r, InitialState::REST).unwrap();
@@ -167,7 +167,7 @@ fn a_record_of_averaged_readings_starting_in_motion_starts_where_its_quiet_step_
     let hold = |v: f32| StepInput {
         v,
         tl: 0.0,
-        measured_omega: None,
+        measured: None,
         opens: false,
     };
     let first = drive_mean(&mut drive, m, |_| hold(0.0));

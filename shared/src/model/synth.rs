@@ -60,7 +60,7 @@ pub fn synthesize(
         sim.apply(&StepInput {
             v: input.v,
             tl: input.tl,
-            measured_omega: None,
+            measured: None,
             opens: coast_from == Some(k),
         });
     }

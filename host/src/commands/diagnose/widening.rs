@@ -175,7 +175,7 @@ mod tests {
     use super::*;
     use crate::commands::diagnose::data::simulated;
     use crate::fit::refit_from;
-    use crate::fit::tests::{quiet, rippled};
+    use crate::fit::tests::{cogged, quiet};
     use motor_id_shared::fit::space::ProblemSpec;
     use motor_id_shared::{ModelParams, ParamId};
 
@@ -282,32 +282,32 @@ mod tests {
     }
 
     #[test]
-    fn a_ripple_s_stalled_fit_is_widened_on_every_sample() {
-        // The ripple's fit started half a turn off its phase: least squares took its
-        // amplitude to zero. Widened on every sample (a block's mean hides the ripple).
-        let truth = rippled();
+    fn a_cogging_s_stalled_fit_is_widened_on_every_sample() {
+        // Cogging's fit started half a turn off its phase: least squares took its
+        // amplitude to zero. Widened on every sample (a block's mean hides the detents).
+        let truth = cogged();
         let data = simulated(&truth, &truth, (12, 6));
         let holdout = holdout_of(&data);
         let mut spec = ProblemSpec::default();
-        spec.fix(ParamId::RippleCycles, 8.0).unwrap();
-        for (id, hi) in [(ParamId::RippleAmp, 0.2), (ParamId::RipplePhase, 6.2)] {
+        spec.fix(ParamId::CogCycles, 8.0).unwrap();
+        for (id, hi) in [(ParamId::CogAmp, 0.5), (ParamId::CogPhase, 6.2)] {
             spec.set_bounds(id, 0.0, hi).unwrap();
             spec.free(id);
         }
-        let start = truth.with(ParamId::RipplePhase, 1.0 + core::f32::consts::PI);
+        let start = truth.with(ParamId::CogPhase, 1.0 + core::f32::consts::PI);
         let fit = refit_from(&data.train, &quiet(), &spec, &start).unwrap();
         let stalled = data.score(fit).unwrap();
-        let ripple = [Effect::TachoRipple];
-        let (fin, refit) = widened(&data, &ripple, stalled.clone(), &holdout, None);
+        let cogging = [Effect::Cogging];
+        let (fin, refit) = widened(&data, &cogging, stalled.clone(), &holdout, None);
         let refit = refit.expect("widened");
         assert!(refit.taken && refit.decimation == 1, "{refit:?}");
         assert!(
-            fin.holdout_rmse < 0.1 * stalled.holdout_rmse,
+            fin.holdout_rmse < 0.2 * stalled.holdout_rmse,
             "{} against {}",
             fin.holdout_rmse,
             stalled.holdout_rmse
         );
-        let amp = fin.fit.result.params.get(ParamId::RippleAmp);
-        assert!((amp - 0.05).abs() < 0.005, "ripple amplitude {amp}");
+        let amp = fin.fit.result.params.get(ParamId::CogAmp);
+        assert!((amp - 0.1).abs() < 0.01, "cogging amplitude {amp}");
     }
 }

@@ -71,6 +71,14 @@ pub fn reading(amp: f32, phase: f32, w: f32, psi: f32) -> f32 {
     }
 }
 
+/// [`reading`] with an angle, and the reading's slope in the angle
+/// (`w amp cos(psi + phase)`: what a shift of the angle moves the reading by).
+#[inline(always)]
+pub fn reading_and_slope(amp: f32, phase: f32, w: f32, psi: f32) -> (f32, f32) {
+    let (sin, cos) = libm::sincosf(psi + phase);
+    (w * (1.0 + amp * sin), w * amp * cos)
+}
+
 /// The ripple angle `cycles theta` of the rotor when `read` is the integral of the tacho's
 /// own readings (from 0 at the record's start, where the rotor's is 0 too). The rotor turns
 /// at the true speed `w`; the reading `w (1 + amp sin(psi + phase))` integrates to
@@ -87,7 +95,13 @@ pub fn rotor_angle(amp: f32, phase: f32, read: f32) -> f32 {
 /// that f32 sin stays accurate on long records.
 #[inline(always)]
 pub fn advance(psi: f32, cycles: f32, rate: f32, dt: f32) -> f32 {
-    libm::remainderf(psi + cycles * rate * dt, core::f32::consts::TAU)
+    shifted(psi, cycles * rate * dt)
+}
+
+/// The ripple angle `psi` shifted by `by`, wrapped to [-pi, pi].
+#[inline(always)]
+pub fn shifted(psi: f32, by: f32) -> f32 {
+    libm::remainderf(psi + by, core::f32::consts::TAU)
 }
 
 #[cfg(test)]
