@@ -176,7 +176,7 @@ pub fn trapezoid_rate(omega: &[f32], k: usize) -> f32 {
 /// Simulate record `r`'s inputs (voltage, load, coast-down) from `init`:
 /// `out_omega[k]` and `out_current[k]` are the readings at sample `k`, before the input of
 /// sample `k` is applied (the convention of [`crate::model::record`]). With `track_angle`, the
-/// ripple angle follows the record's measured speed (see [`Simulator::apply`]).
+/// ripple angle follows the record's measured speed and readings (see [`Simulator::apply`]).
 pub fn simulate(
     p: &ModelParams,
     r: &Record,

@@ -113,8 +113,8 @@ pub struct Simulator {
     /// Delay in samples, split into whole samples and fraction.
     delay_whole: u8,
     delay_frac: f32,
-    /// The tacho reading lags (`delay_whole` or `delay_frac` non-zero): readings go
-    /// through `ring`; otherwise the newest one is `tacho`.
+    /// The tacho reading lags (`delay_whole` or `delay_frac` non-zero): what `tacho` holds
+    /// goes through `ring`; otherwise it is read as it is.
     delayed: bool,
     /// No effect acts on the dynamics or the reading.
     linear: bool,
@@ -126,8 +126,9 @@ pub struct Simulator {
     friction_only: bool,
     /// The bridge is open (coast-down): no armature current, the voltage is not applied.
     open: bool,
-    /// Newest tacho reading; where the ripple's angle follows the readings, the shaft speed
-    /// before the ripple (the tracker holds the reading, `sim_readings.rs`).
+    /// The newest value into the delay line: the tacho's reading, or, where the ripple's
+    /// angle follows a record's readings, the shaft speed, the ripple applied after the
+    /// line (the reading is then the angle tracker's, `sim_readings.rs`).
     tacho: f32,
     current: Compensated,
     omega: Compensated,
@@ -222,7 +223,9 @@ impl Simulator {
             omega: Compensated::new(0.0),
             psi: 0.0,
             psi_from_reading: false,
-            angle_tracker: [angle_tracker::AngleTracker::START; HOST_SLOT],
+            angle_tracker: core::array::from_fn(|_| {
+                angle_tracker::AngleTracker::start(p.get(ParamId::RipplePhase))
+            }),
             cogging_psi: [0.0; HOST_SLOT],
             winding_rise: [Compensated::new(0.0); HOST_SLOT],
             // (`from_fn`: a board's empty slot calls nothing.)
@@ -247,7 +250,8 @@ impl Simulator {
         self.omega = Compensated::new(init.omega);
         self.psi = 0.0;
         self.psi_from_reading = false;
-        self.angle_tracker = [angle_tracker::AngleTracker::START; HOST_SLOT];
+        let phase = self.effect(ParamId::RipplePhase);
+        self.angle_tracker = core::array::from_fn(|_| angle_tracker::AngleTracker::start(phase));
         self.cogging_psi = [0.0; HOST_SLOT];
         // Each record begins cold (`winding_heating`).
         self.winding_rise = [Compensated::new(0.0); HOST_SLOT];

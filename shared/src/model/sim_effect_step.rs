@@ -149,7 +149,10 @@ impl Simulator {
         self.heat_winding_over_the_step(i0);
         if self.tracks_angle() {
             let rate = measured.map_or(0.5 * (w0 + self.omega.hi), |m| m.rate);
-            self.psi_from_reading |= measured.is_some();
+            if FULL && measured.is_some() && !self.psi_from_reading {
+                self.psi_from_reading = true;
+                self.unripple_delay_line(w0);
+            }
             let cycles = self.effect(ParamId::RippleCycles);
             self.psi = tacho_ripple::advance(self.psi, cycles, rate, self.dt);
             let cogging = self.effect(ParamId::CogCycles);

@@ -1,7 +1,8 @@
 //! What a simulation's sensors read: the tacho (its ripple, paper Eq. 4's speed seen through
 //! [`crate::model::effects::tacho_ripple`]) through the delay line of
-//! [`crate::model::effects::sensor_delay`], and the current with its sensor's offset
-//! ([`crate::model::effects::current_offset`]).
+//! [`crate::model::effects::sensor_delay`] (where the ripple's angle follows a record's
+//! readings, the shaft speed through the delay line and the ripple after it), and the
+//! current with its sensor's offset ([`crate::model::effects::current_offset`]).
 
 use super::{Reading, Simulator, RING};
 use crate::capacity::FULL;
@@ -31,14 +32,24 @@ impl Simulator {
     #[inline(never)]
     fn push_reading_at_measured_angle(&mut self, amp: f32, phase: f32) {
         self.push_tacho(self.omega.hi);
-        let late = match self.delayed {
-            false => self.omega.hi,
-            true => self.delay_line(),
-        };
-        let psi = tacho_ripple::rotor_angle(amp, phase, self.psi);
-        let (reading, slope) = tacho_ripple::reading_and_slope(amp, phase, late, psi);
+        let late = self.delay_line_output();
+        let psi = self.psi;
         if let Some(t) = self.angle_tracker.first_mut() {
-            t.read(reading, slope);
+            let given = (phase, t.cos_phase);
+            let (reading, slope) = tacho_ripple::reading_and_slope_at_read(amp, given, late, psi);
+            t.predict(reading, slope);
+        }
+    }
+
+    /// The delay line's entry at a record's start (the tacho's first reading, rippled), as
+    /// the shaft speed `w0` it was, once the ripple's angle follows the record's readings
+    /// and the line holds the shaft speed ([`Simulator::push_reading_at_measured_angle`]):
+    /// taken rippled, it was rippled twice for the delay's first samples. (A record's
+    /// simulator is given its readings from its first step on, `Record::step_input`: the
+    /// line holds that one entry then.)
+    pub(super) fn unripple_delay_line(&mut self, w0: f32) {
+        if self.delayed && self.filled == 1 {
+            self.ring[usize::from(self.head)] = w0;
         }
     }
 
@@ -64,17 +75,25 @@ impl Simulator {
         sensor_delay::interpolate(back(whole), back(whole + 1), self.delay_frac)
     }
 
+    /// What leaves the delay line now: the newest value pushed, or the one `td` before.
+    #[inline(always)]
+    fn delay_line_output(&self) -> f32 {
+        match self.delayed {
+            false => self.tacho,
+            true => self.delay_line(),
+        }
+    }
+
     /// What the sensors read now.
     #[inline(always)]
     pub fn reading(&self) -> Reading {
         let tracked = match FULL && self.psi_from_reading {
-            true => self.angle_tracker.first().and_then(|t| t.reading()),
+            true => self.angle_tracker.first().and_then(|t| t.predicted()),
             false => None,
         };
-        let omega = match (tracked, self.delayed) {
-            (Some(reading), _) => reading,
-            (None, false) => self.tacho,
-            (None, true) => self.delay_line(),
+        let omega = match tracked {
+            Some(reading) => reading,
+            None => self.delay_line_output(),
         };
         Reading {
             omega,

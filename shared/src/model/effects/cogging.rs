@@ -6,7 +6,9 @@
 //! at rest like friction does, but unlike friction it changes sign with the angle, and a
 //! turning shaft shows it as a speed ripple at `cog_cycles` times the rotation, largest at
 //! low speed (`cog_amp / (J cog_cycles w)`, where tacho ripple grows with `w`). The angle
-//! follows the measured speed when a fit gives it, as the tacho ripple's does.
+//! follows the measured speed when a fit gives it, as the tacho ripple's does (but is not
+//! corrected by the readings as the ripple's is: the correction also takes up an error of
+//! the ripple's phase).
 
 use super::regime;
 use super::entry::{ids, EffectBounds, EffectSpec, Held, HeldInputs, Role, StepState};
