@@ -664,3 +664,22 @@ fn a_fan_load_beside_a_ripple_is_named_and_the_ripple_s_fit_reaches_the_noise() 
     );
     assert!(!o.unexplained, "{v}");
 }
+
+#[test]
+fn a_fix_at_zero_switches_an_effect_off() {
+    // `--fix tc=0`: the user says the Coulomb torque is zero. The entry is not tried, and
+    // no model holds a Coulomb torque (judged by value, a fix at the default was taken for
+    // no fix, and Coulomb friction was fitted and named on the sticky plant).
+    let dir = tempfile::tempdir().unwrap();
+    let r = diagnose(dir.path(), sticky(), SpeedSensor::Tacho, &["--fix", "tc=0"]);
+    let tried: Vec<&str> = r["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|e| e["name"].as_str())
+        .collect();
+    assert!(!tried.contains(&"coulomb_friction"), "{tried:?}");
+    assert!(tried.contains(&"static_friction"), "{tried:?}");
+    let v = &r["verdict"];
+    assert!(v["params"]["tc"].as_f64().is_none_or(|tc| tc == 0.0), "{v}");
+}

@@ -6,10 +6,46 @@ use super::data::Data;
 use super::data::Trace;
 use super::spectrum::{order_fit, order_peak, OrderPeak, Shape};
 use crate::fit::{fit_basin_from, refit_from, Fit, FitOptions};
+use crate::spec::FixSpec;
 use anyhow::{anyhow, Result};
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::{Effect, Scales};
+use motor_id_shared::param_id::PARAM_COUNT;
 use motor_id_shared::{ModelParams, ParamId};
+
+/// The parameters the user held with `--fix`, told by name and not by value: a fix at a
+/// parameter's default (`--fix tc=0`, `--fix ripple_cycles=1`) is a fix too (judged by
+/// value, it was freed for Coulomb friction, and a once-per-revolution ripple took the
+/// residual's order).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct UserFixes([bool; PARAM_COUNT]);
+
+impl UserFixes {
+    /// The parameters of the user's `--fix` options.
+    pub fn of(fix: &[FixSpec]) -> UserFixes {
+        let mut out = UserFixes::default();
+        for (id, _) in fix.iter().flat_map(|f| &f.0) {
+            out.0[id.index()] = true;
+        }
+        out
+    }
+
+    /// Whether the user fixed `id`.
+    pub fn holds(&self, id: ParamId) -> bool {
+        self.0[id.index()]
+    }
+
+    /// Whether the user left `effect` something to fit: not switched off (its first
+    /// parameter, which turns it on, fixed at zero), and not every one of its parameters
+    /// fixed (the baseline then holds it as the user gave it).
+    pub fn leave_to_fit(&self, effect: Effect, spec: &ProblemSpec) -> bool {
+        let own = effect.params();
+        let off = own
+            .first()
+            .is_some_and(|&id| self.holds(id) && spec.base.get(id) == 0.0);
+        !off && !own.iter().all(|&id| self.holds(id))
+    }
+}
 
 /// The order spectra's peaks of a model's residual (the baseline's, or that of the model an
 /// effect is added to: [`super::search_context::Context::for_adding`]) that start the angle
@@ -55,8 +91,8 @@ pub fn with_effect(
     spec: &ProblemSpec,
     effect: Effect,
     base: &ModelParams,
-    scales: &Scales,
-    peaks: &Peaks,
+    (scales, peaks): (&Scales, &Peaks),
+    fixes: &UserFixes,
 ) -> Result<ProblemSpec> {
     let mut s = *spec;
     s.base = *base;
@@ -68,7 +104,7 @@ pub fn with_effect(
             ParamId::CogCycles => Some(peaks.cogging.order),
             _ => None,
         };
-        let user_fixed = !spec.free[id.index()] && spec.base.get(id) != ModelParams::default_of(id);
+        let user_fixed = fixes.holds(id);
         if let Some(order) = order {
             // The user's bounds or value stand (a motor's detents per revolution are on its
             // datasheet); otherwise the order the residual shows.

@@ -2,7 +2,7 @@
 //! usable effect of the catalogue added to it ([`super::search`]).
 
 use super::data::{Data, Scored};
-use super::effect_fit::Peaks;
+use super::effect_fit::{Peaks, UserFixes};
 use super::parallel::in_parallel;
 use super::regimes;
 use super::search_context::Context;
@@ -104,16 +104,19 @@ fn first_round<'a>(
         data,
         quiet: quiet.clone(),
         spec: *spec,
+        fixes: UserFixes::of(&quiet.fix),
         base_params,
         scales,
         peaks,
     };
-    // Which: every effect of the catalogue the records can show, refitted on the training
-    // records (cogging only when told its detents per revolution, above).
+    // Which: every effect of the catalogue the records can show and the user left to fit,
+    // refitted on the training records (cogging only when told its detents per
+    // revolution, above).
     let usable: Vec<Effect> = Effect::ALL
         .into_iter()
         .filter(|e| (data.with_current || !e.needs_current()) && !without.contains(e))
         .filter(|e| *e != Effect::Cogging || peaks.detents.is_some())
+        .filter(|e| cx.fixes.leave_to_fit(*e, spec))
         .collect();
     let fits = in_parallel(usable.len(), |k| {
         let effect = usable[k];

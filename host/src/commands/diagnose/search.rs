@@ -135,7 +135,7 @@ pub fn search(
     // Forward: more effects, one at a time, on what is left after the ones named so far.
     let mut chain: Vec<(Effect, Scored)> = vec![(first, first_fit)];
     let mut in_model = vec![first];
-    let mut model = with_effect(&spec, first, &base_params, &scales, &peaks)?;
+    let mut model = with_effect(&spec, first, &base_params, (&scales, &peaks), &cx.fixes)?;
     loop {
         let (_, last) = chain.last().expect("the chain holds the first effect");
         let params = last.fit.result.params;
@@ -188,7 +188,7 @@ pub fn search(
             rivals,
             &found.holdout,
         ));
-        model = with_effect(&model, effect, &params, &scales, &step.peaks)?;
+        model = with_effect(&model, effect, &params, (&scales, &step.peaks), &cx.fixes)?;
         in_model.push(effect);
         chain.push((effect, f));
     }
@@ -391,7 +391,13 @@ fn own_part_alike(
     let Some(parent_fit) = found.fit(parent).filter(|f| found.significant(parent, f)) else {
         return Ok(None);
     };
-    let model = with_effect(&cx.spec, parent, &cx.base_params, &cx.scales, &cx.peaks)?;
+    let model = with_effect(
+        &cx.spec,
+        parent,
+        &cx.base_params,
+        (&cx.scales, &cx.peaks),
+        &cx.fixes,
+    )?;
     let at = parent_fit.fit.result.params;
     // Every usable entry: one the records do not show by itself may show beside the parent
     // (a fan load beside a Coulomb friction that dwarfs it).

@@ -2,7 +2,7 @@
 //! refits: which effects a model holds, and what is left when one is taken out.
 
 use super::data::{Data, Scored};
-use super::effect_fit::{fit_effect, with_effect, Peaks};
+use super::effect_fit::{fit_effect, with_effect, Peaks, UserFixes};
 use crate::fit::{refit_from, FitOptions};
 use anyhow::Result;
 use motor_id_shared::fit::space::ProblemSpec;
@@ -10,12 +10,14 @@ use motor_id_shared::model::effects::{Effect, Scales};
 use motor_id_shared::ModelParams;
 
 /// What every fit of the search shares: the records, the quiet fit options, the user's
-/// problem, the baseline's parameters and scales, and the order peaks of a ripple and of
+/// problem and fixes, the baseline's parameters and scales, and the order peaks of a ripple and of
 /// cogging.
 pub(super) struct Context<'a> {
     pub(super) data: &'a Data,
     pub(super) quiet: FitOptions,
     pub(super) spec: ProblemSpec,
+    /// The parameters the user fixed, by name.
+    pub(super) fixes: UserFixes,
     pub(super) base_params: ModelParams,
     pub(super) scales: Scales,
     pub(super) peaks: Peaks,
@@ -51,7 +53,7 @@ impl<'a> Context<'a> {
         let mut s = self.spec;
         for e in set {
             s.base = self.spec.base;
-            s = with_effect(&s, *e, start, &self.scales, &self.peaks)?;
+            s = with_effect(&s, *e, start, (&self.scales, &self.peaks), &self.fixes)?;
         }
         s.base = *start;
         Ok(s)
@@ -92,7 +94,7 @@ impl<'a> Context<'a> {
         effect: Effect,
         at: &ModelParams,
     ) -> Result<Scored> {
-        let s = with_effect(model, effect, at, &self.scales, &self.peaks)?;
+        let s = with_effect(model, effect, at, (&self.scales, &self.peaks), &self.fixes)?;
         self.data
             .score(fit_effect(self.data, &self.quiet, &s, effect, &self.peaks)?)
     }
@@ -134,14 +136,18 @@ mod tests {
     use crate::commands::diagnose::data::simulated;
     use crate::commands::diagnose::spectrum::OrderPeak;
     use crate::fit::tests::quiet;
+    use crate::spec::{problem, FixSpec};
     use motor_id_shared::ParamId;
 
-    /// A context on one record of `motor` for the user's problem `spec`.
-    fn context(data: &Data, spec: ProblemSpec, motor: ModelParams) -> Context<'_> {
+    /// A context on one record of `motor` for the user's problem with the parameters of
+    /// `fix` fixed (`--fix`).
+    fn context<'a>(data: &'a Data, fix: &[(ParamId, f32)], motor: ModelParams) -> Context<'a> {
+        let fix = [FixSpec(fix.to_vec())];
         Context {
             data,
             quiet: quiet(),
-            spec,
+            spec: problem(&[], &fix).unwrap(),
+            fixes: UserFixes::of(&fix),
             base_params: motor,
             scales: data.scales(&motor),
             peaks: Peaks {
@@ -162,16 +168,14 @@ mod tests {
             .with(ParamId::Tc, 0.05)
             .with(ParamId::Ts, 0.03)
             .with(ParamId::Ws, 20.0);
-        let cx = context(&data, ProblemSpec::default(), motor);
+        let cx = context(&data, &[], motor);
         let spec = cx.spec_of(&[Effect::StaticFriction], &start).unwrap();
         for id in [ParamId::Tc, ParamId::Ts, ParamId::Ws] {
             assert!(spec.free[id.index()], "{} held", id.name());
         }
         assert_eq!(spec.base, start);
         // The same effect when the user fixed its Coulomb torque: that value stays fixed.
-        let mut fixed = ProblemSpec::default();
-        fixed.fix(ParamId::Tc, 0.05).unwrap();
-        let cx = context(&data, fixed, motor);
+        let cx = context(&data, &[(ParamId::Tc, 0.05)], motor);
         let spec = cx.spec_of(&[Effect::StaticFriction], &start).unwrap();
         assert!(!spec.free[ParamId::Tc.index()]);
         assert!(spec.free[ParamId::Ts.index()] && spec.free[ParamId::Ws.index()]);
@@ -181,7 +185,7 @@ mod tests {
     fn a_refitted_ripple_keeps_the_order_its_fit_holds() {
         let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
         let data = simulated(&motor, &motor, (1, 1));
-        let mut cx = context(&data, ProblemSpec::default(), motor);
+        let mut cx = context(&data, &[], motor);
         // The baseline's residual peaked at 17 cycles; the ripple was fitted at 14.
         cx.peaks.ripple.order = 17;
         let start = motor
@@ -196,6 +200,35 @@ mod tests {
             assert_eq!(spec.base.get(ParamId::RippleCycles), 14.0, "{set:?}");
             assert!(spec.free[ParamId::RippleAmp.index()]);
         }
+    }
+
+    #[test]
+    fn a_user_s_fix_at_a_default_value_is_kept() {
+        // `--fix ripple_cycles=1` (a once-per-revolution ripple) and `--fix tc=0` hold the
+        // value they give, the defaults: judged by value, the residual's order (17) took
+        // the ripple's place, and Coulomb friction was freed.
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        let data = simulated(&motor, &motor, (1, 1));
+        let fix = [(ParamId::RippleCycles, 1.0), (ParamId::Tc, 0.0)];
+        let mut cx = context(&data, &fix, motor);
+        cx.peaks.ripple.order = 17;
+        let spec = cx
+            .spec_of(&[Effect::TachoRipple, Effect::StaticFriction], &motor)
+            .unwrap();
+        for id in [ParamId::RippleCycles, ParamId::Tc] {
+            assert!(!spec.free[id.index()], "{} freed", id.name());
+        }
+        assert_eq!(spec.base.get(ParamId::RippleCycles), 1.0);
+        assert!(spec.free[ParamId::RippleAmp.index()] && spec.free[ParamId::Ts.index()]);
+        // Coulomb friction fixed at zero is switched off: not tried; static friction, its
+        // extension, still is (its break-away on no Coulomb torque), and so is the ripple.
+        let leaves = |e| cx.fixes.leave_to_fit(e, &cx.spec);
+        assert!(!leaves(Effect::CoulombFriction));
+        assert!(leaves(Effect::StaticFriction) && leaves(Effect::TachoRipple));
+        // Coulomb friction fixed at a value: the baseline holds it, nothing left to fit.
+        let cx = context(&data, &[(ParamId::Tc, 0.05)], motor);
+        assert!(!cx.fixes.leave_to_fit(Effect::CoulombFriction, &cx.spec));
+        assert!(cx.fixes.leave_to_fit(Effect::StaticFriction, &cx.spec));
     }
 
     #[test]
