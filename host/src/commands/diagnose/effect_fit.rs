@@ -83,6 +83,24 @@ impl Peaks {
     }
 }
 
+impl Peaks {
+    /// The phase the order spectrum's peak gives `effect`'s ripple, in [0, 2 pi): the tacho
+    /// ripple's, or cogging's (the speed ripple of a detent torque `A sin(n theta + phi)` is
+    /// `A / (J n w) cos(n theta + phi)`, paper Eq. 4 over one detent period: the peak's
+    /// phase less a quarter turn); None for another effect.
+    pub fn phase_of(&self, effect: Effect) -> Option<f32> {
+        let tau = std::f64::consts::TAU;
+        match effect {
+            Effect::TachoRipple => Some(self.ripple.phase.rem_euclid(tau) as f32),
+            Effect::Cogging => {
+                let phase = self.cogging.phase - std::f64::consts::FRAC_PI_2;
+                Some(phase.rem_euclid(tau) as f32)
+            }
+            _ => None,
+        }
+    }
+}
+
 /// `spec` with `effect` free within bounds scaled to `base`, and the effect it extends with
 /// it (user bounds or fixes on their parameters are kept); for the tacho ripple and cogging
 /// the number of cycles is the order found in the residual of the model it is added to
@@ -117,6 +135,15 @@ pub fn with_effect(
         if user_fixed || spec.free[id.index()] {
             continue;
         }
+        // A phase's box is a turn centred on the spectrum's phase: its ends are the worst
+        // phases, where nothing draws a search (a box from 0 drew the ripple's search to its
+        // bound at 0, 2 rad off, as the tracker of the ripple's angle flattens the phase's
+        // objective away from the truth).
+        let is_phase = matches!(id, ParamId::RipplePhase | ParamId::CogPhase);
+        let (lo, hi) = match peaks.phase_of(effect).filter(|_| is_phase) {
+            Some(phase) => (phase - core::f32::consts::PI, phase + core::f32::consts::PI),
+            None => (lo, hi),
+        };
         s.set_bounds(id, lo, hi)
             .map_err(|e| anyhow!("{} bounds: {e}", effect.name()))?;
         s.free(id);
@@ -138,21 +165,27 @@ pub fn fit_effect(
 ) -> Result<Fit> {
     // The spec's base holds the model to add the effect to, and the effect's fixed values.
     let mut start = spec.base;
-    if effect == Effect::TachoRipple {
-        let (lo, hi) = spec.bounds[ParamId::RippleAmp.index()];
-        start.set(ParamId::RippleAmp, (peaks.ripple.amp as f32).clamp(lo, hi));
-        start.set(ParamId::RipplePhase, peaks.ripple.phase as f32);
-    }
-    if effect == Effect::Cogging {
-        // The speed ripple of a detent torque `A sin(n theta + phi)` is
-        // `A / (J n w) cos(n theta + phi)` (paper Eq. 4 over one detent period): the
-        // spectrum's amplitude times J n is A, and its phase less a quarter turn is phi.
-        let peak = &peaks.cogging;
-        let (lo, hi) = spec.bounds[ParamId::CogAmp.index()];
-        let torque = peak.amp * start.get(ParamId::J) as f64 * peak.order as f64;
-        start.set(ParamId::CogAmp, (torque as f32).clamp(lo, hi));
-        let phase = (peak.phase - std::f64::consts::FRAC_PI_2).rem_euclid(std::f64::consts::TAU);
-        start.set(ParamId::CogPhase, phase as f32);
+    // A free parameter starts at `x` within its box (a fixed one keeps its value).
+    let mut start_at = |id: ParamId, x: f32| {
+        if spec.free[id.index()] {
+            let (lo, hi) = spec.bounds[id.index()];
+            start.set(id, x.clamp(lo, hi));
+        }
+    };
+    match effect {
+        Effect::TachoRipple => {
+            start_at(ParamId::RippleAmp, peaks.ripple.amp as f32);
+            start_at(ParamId::RipplePhase, peaks.phase_of(effect).unwrap_or(0.0));
+        }
+        Effect::Cogging => {
+            // The spectrum's amplitude of the speed ripple times J n is the detent torque
+            // ([`Peaks::phase_of`]).
+            let peak = &peaks.cogging;
+            let torque = peak.amp * spec.base.get(ParamId::J) as f64 * peak.order as f64;
+            start_at(ParamId::CogAmp, torque as f32);
+            start_at(ParamId::CogPhase, peaks.phase_of(effect).unwrap_or(0.0));
+        }
+        _ => {}
     }
     let alone = effects_alone(spec, &[effect], &start);
     let first = fit_basin_from(&data.train, opts, &alone, &start)?;

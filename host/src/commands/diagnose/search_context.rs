@@ -232,6 +232,28 @@ mod tests {
     }
 
     #[test]
+    fn a_phase_s_box_is_a_turn_centred_on_the_spectrum_s_phase() {
+        // The ripple's spectrum peaked at 4 rad: the phase is searched in 4 +- pi, whose
+        // ends are the worst phases (a box from 0 drew a search to its bound at 0).
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        let data = simulated(&motor, &motor, (1, 1));
+        let mut cx = context(&data, &[], motor);
+        cx.peaks.ripple.phase = 4.0;
+        let spec = cx.spec_of(&[Effect::TachoRipple], &motor).unwrap();
+        let (lo, hi) = spec.bounds[ParamId::RipplePhase.index()];
+        let pi = core::f32::consts::PI;
+        assert!((lo - (4.0 - pi)).abs() < 1e-6 && (hi - (4.0 + pi)).abs() < 1e-6);
+        assert!(spec.free[ParamId::RipplePhase.index()]);
+        // The user's fixed phase stays.
+        let mut cx = context(&data, &[(ParamId::RipplePhase, 1.0)], motor);
+        cx.peaks.ripple.phase = 4.0;
+        let start = motor.with(ParamId::RipplePhase, 1.0);
+        let spec = cx.spec_of(&[Effect::TachoRipple], &start).unwrap();
+        assert!(!spec.free[ParamId::RipplePhase.index()]);
+        assert_eq!(spec.base.get(ParamId::RipplePhase), 1.0);
+    }
+
+    #[test]
     fn a_model_holds_an_effect_itself_or_through_an_extension() {
         use Effect::{BridgeDeadtime, CoulombFriction, SensorDelay, StaticFriction};
         // A prefix [sensor_delay] of the chain [sensor_delay, static_friction] does not hold
