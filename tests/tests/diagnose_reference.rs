@@ -681,5 +681,7 @@ fn a_fix_at_zero_switches_an_effect_off() {
     assert!(!tried.contains(&"coulomb_friction"), "{tried:?}");
     assert!(tried.contains(&"static_friction"), "{tried:?}");
     let v = &r["verdict"];
+    let named = motor_id_tests::named_effects(v);
+    assert!(!named.iter().any(|n| n == "coulomb_friction"), "{v}");
     assert!(v["params"]["tc"].as_f64().is_none_or(|tc| tc == 0.0), "{v}");
 }

@@ -90,14 +90,13 @@ impl Peaks {
     /// phase less a quarter turn); None for another effect.
     pub fn phase_of(&self, effect: Effect) -> Option<f32> {
         let tau = std::f64::consts::TAU;
-        match effect {
-            Effect::TachoRipple => Some(self.ripple.phase.rem_euclid(tau) as f32),
-            Effect::Cogging => {
-                let phase = self.cogging.phase - std::f64::consts::FRAC_PI_2;
-                Some(phase.rem_euclid(tau) as f32)
-            }
-            _ => None,
-        }
+        let phase = match effect {
+            Effect::TachoRipple => self.ripple.phase,
+            Effect::Cogging => self.cogging.phase - std::f64::consts::FRAC_PI_2,
+            _ => return None,
+        };
+        // (None for a spectrum of a residual that is not finite.)
+        phase.is_finite().then(|| phase.rem_euclid(tau) as f32)
     }
 }
 
@@ -135,12 +134,13 @@ pub fn with_effect(
         if user_fixed || spec.free[id.index()] {
             continue;
         }
-        // A phase's box is a turn centred on the spectrum's phase: its ends are the worst
-        // phases, where nothing draws a search (a box from 0 drew the ripple's search to its
-        // bound at 0, 2 rad off, as the tracker of the ripple's angle flattens the phase's
-        // objective away from the truth).
-        let is_phase = matches!(id, ParamId::RipplePhase | ParamId::CogPhase);
-        let (lo, hi) = match peaks.phase_of(effect).filter(|_| is_phase) {
+        // A phase's box is a turn centred on the phase the model it is added to holds (a
+        // refit's), or else on the spectrum's: its ends are the worst phases, where nothing
+        // draws a search (a box from 0 drew the ripple's search to its bound at 0, 2 rad
+        // off, as the tracker of the ripple's angle flattens the phase's objective away
+        // from the truth; and a refit's phase held in a box centred elsewhere was clamped
+        // to an end of it).
+        let (lo, hi) = match phase_centre(effect, id, base, peaks) {
             Some(phase) => (phase - core::f32::consts::PI, phase + core::f32::consts::PI),
             None => (lo, hi),
         };
@@ -149,6 +149,22 @@ pub fn with_effect(
         s.free(id);
     }
     Ok(s)
+}
+
+/// The centre of the box of `id` when it is `effect`'s phase: the phase `base` holds when
+/// the effect is on there (a refit of a model that holds it), else the spectrum's
+/// ([`Peaks::phase_of`]).
+fn phase_centre(effect: Effect, id: ParamId, base: &ModelParams, peaks: &Peaks) -> Option<f32> {
+    let switch = match id {
+        ParamId::RipplePhase => ParamId::RippleAmp,
+        ParamId::CogPhase => ParamId::CogAmp,
+        _ => return None,
+    };
+    let held = base.get(id);
+    match base.get(switch) != 0.0 && held.is_finite() {
+        true => Some(held),
+        false => peaks.phase_of(effect),
+    }
 }
 
 /// Fit `spec` (an effect added to the model in `spec.base`) in two stages: the effect's

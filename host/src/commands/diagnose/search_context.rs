@@ -44,8 +44,8 @@ impl<'a> Context<'a> {
 
     /// The user's problem with every effect of `set` free (and what each extends), the
     /// fixed values taken from `start` (a ripple's or cogging's order among them: a refit
-    /// keeps the order its fit holds). Whether the user fixed a parameter is judged on the
-    /// user's own values ([`with_effect`]), not on `start`'s: an effect's fitted value there
+    /// keeps the order its fit holds). Whether the user fixed a parameter is judged by name
+    /// ([`super::effect_fit::UserFixes`]), not on `start`'s values: an effect's fitted value there
     /// is no fix of the user's (taken for one, every effect of a refitted model was held at
     /// the final fit's values, and an entry whose parameters were all held had nothing to
     /// fit: `diagnose` stopped with "every parameter is fixed").
@@ -244,6 +244,15 @@ mod tests {
         let pi = core::f32::consts::PI;
         assert!((lo - (4.0 - pi)).abs() < 1e-6 && (hi - (4.0 + pi)).abs() < 1e-6);
         assert!(spec.free[ParamId::RipplePhase.index()]);
+        // A refit of a model that holds the ripple: the box is centred on its fitted phase,
+        // not on the spectrum's (centred there, a phase of 0.1 was clamped to 3.06, the
+        // worst phase).
+        let fitted = motor
+            .with(ParamId::RippleAmp, 0.03)
+            .with(ParamId::RipplePhase, 0.1);
+        let spec = cx.spec_of(&[Effect::TachoRipple], &fitted).unwrap();
+        let (lo, hi) = spec.bounds[ParamId::RipplePhase.index()];
+        assert!((lo - (0.1 - pi)).abs() < 1e-6 && (hi - (0.1 + pi)).abs() < 1e-6);
         // The user's fixed phase stays.
         let mut cx = context(&data, &[(ParamId::RipplePhase, 1.0)], motor);
         cx.peaks.ripple.phase = 4.0;
