@@ -73,6 +73,12 @@ fn sticky() -> Effects {
     }
 }
 
+/// `o` named exactly `names` (in catalogue-name order).
+fn assert_named(o: &blind::Outcome, names: &[&str]) {
+    let named: Vec<&str> = o.named.iter().map(String::as_str).collect();
+    assert_eq!(named, names, "{}", o.verdict);
+}
+
 /// Case `names` of the blind harness at `rate` and `seed`, read by the quiet tacho that shows
 /// a tacho's own effects ([`blind::QUIET_TACHO`]), diagnosed in `dir`.
 fn on_a_quiet_tacho(dir: &Path, names: &[&str], rate: f64, seed: u64) -> blind::Outcome {
@@ -618,12 +624,7 @@ fn a_look_alike_weighed_inside_the_rest_of_the_model_is_refitted_with_it() {
     // ("every parameter is fixed: nothing to identify").
     let dir = tempfile::tempdir().unwrap();
     let o = on_a_quiet_tacho(dir.path(), &["static", "ripple"], 5000.0, 1);
-    assert_eq!(
-        o.named.iter().collect::<Vec<_>>(),
-        ["static_friction", "tacho_ripple"],
-        "{}",
-        o.verdict
-    );
+    assert_named(&o, &["static_friction", "tacho_ripple"]);
 }
 
 #[test]
@@ -635,11 +636,7 @@ fn a_ripple_beside_a_current_limit_takes_its_order_from_the_limited_model_s_resi
     let dir = tempfile::tempdir().unwrap();
     let o = on_a_quiet_tacho(dir.path(), &["ripple", "limit"], 5000.0, 1);
     let v = &o.verdict;
-    assert_eq!(
-        o.named.iter().collect::<Vec<_>>(),
-        ["current_limit", "tacho_ripple"],
-        "{v}"
-    );
+    assert_named(&o, &["current_limit", "tacho_ripple"]);
     assert_eq!(
         v["params"]["ripple_cycles"].as_f64(),
         Some(o.truth.ripple_cycles),
@@ -656,13 +653,8 @@ fn a_fan_load_beside_a_ripple_is_named_and_the_ripple_s_fit_reaches_the_noise() 
     // follows the rotor: both named, and the remainder within the noise.
     let dir = tempfile::tempdir().unwrap();
     let o = on_a_quiet_tacho(dir.path(), &["quadratic", "ripple"], 5000.0, 1);
-    let v = &o.verdict;
-    assert_eq!(
-        o.named.iter().collect::<Vec<_>>(),
-        ["quadratic_load", "tacho_ripple"],
-        "{v}"
-    );
-    assert!(!o.unexplained, "{v}");
+    assert_named(&o, &["quadratic_load", "tacho_ripple"]);
+    assert!(!o.unexplained, "{}", o.verdict);
 }
 
 #[test]

@@ -45,6 +45,16 @@ impl UserFixes {
             .is_some_and(|&id| self.holds(id) && spec.base.get(id) == 0.0);
         !off && !own.iter().all(|&id| self.holds(id))
     }
+
+    /// The entries no model of the search takes in, not even in place of an extension
+    /// dropped from it: those left out (`without`), and those these fixes switch off or
+    /// hold whole ([`UserFixes::leave_to_fit`]).
+    pub fn left_out(&self, without: &[Effect], spec: &ProblemSpec) -> Vec<Effect> {
+        Effect::ALL
+            .into_iter()
+            .filter(|e| without.contains(e) || !self.leave_to_fit(*e, spec))
+            .collect()
+    }
 }
 
 /// The order spectra's peaks of a model's residual (the baseline's, or that of the model an

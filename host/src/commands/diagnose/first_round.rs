@@ -65,6 +65,8 @@ pub(super) struct FirstRound<'a> {
     pub(super) where_: regimes::WhereReport,
     pub(super) holdout: Holdout,
     pub(super) usable: Vec<Effect>,
+    /// The entries no model takes in ([`super::effect_fit::UserFixes::left_out`]).
+    pub(super) never: Vec<Effect>,
     pub(super) scored: Vec<(Effect, Scored)>,
     pub(super) left_out_parents: Vec<(Effect, Scored)>,
 }
@@ -112,11 +114,11 @@ fn first_round<'a>(
     // Which: every effect of the catalogue the records can show and the user left to fit,
     // refitted on the training records (cogging only when told its detents per
     // revolution, above).
+    let never = cx.fixes.left_out(without, spec);
     let usable: Vec<Effect> = Effect::ALL
         .into_iter()
-        .filter(|e| (data.with_current || !e.needs_current()) && !without.contains(e))
+        .filter(|e| (data.with_current || !e.needs_current()) && !never.contains(e))
         .filter(|e| *e != Effect::Cogging || peaks.detents.is_some())
-        .filter(|e| cx.fixes.leave_to_fit(*e, spec))
         .collect();
     let fits = in_parallel(usable.len(), |k| {
         let effect = usable[k];
@@ -144,6 +146,7 @@ fn first_round<'a>(
         where_,
         holdout,
         usable,
+        never,
         scored,
         left_out_parents,
     })

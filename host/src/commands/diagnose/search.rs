@@ -44,16 +44,11 @@ pub fn search(
         where_,
         holdout,
         usable,
+        never,
         scored,
         left_out_parents,
     } = round;
     let (base_params, scales, peaks) = (cx.base_params, cx.scales, cx.peaks);
-    // The entries no model takes in, not even in place of an extension dropped from it:
-    // those left out, and those the user's fixes switch off or hold whole.
-    let never: Vec<Effect> = Effect::ALL
-        .into_iter()
-        .filter(|e| without.contains(e) || !cx.fixes.leave_to_fit(*e, &spec))
-        .collect();
     let without = &never[..];
     let baseline = data.score(baseline)?;
     let mut found = Search {

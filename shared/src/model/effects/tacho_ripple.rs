@@ -72,14 +72,6 @@ pub fn reading(amp: f32, phase: f32, w: f32, psi: f32) -> f32 {
     }
 }
 
-/// [`reading`] with an angle, and the reading's slope in the angle
-/// (`w amp cos(psi + phase)`: what a shift of the angle moves the reading by).
-#[inline(always)]
-pub fn reading_and_slope(amp: f32, phase: f32, w: f32, psi: f32) -> (f32, f32) {
-    let (sin, cos) = libm::sincosf(psi + phase);
-    (w * (1.0 + amp * sin), w * amp * cos)
-}
-
 /// The ripple angle `cycles theta` of the rotor when `read` is the integral of the tacho's
 /// own readings (from 0 at the record's start, where the rotor's is 0 too). The rotor turns
 /// at the true speed `w`; the reading `w (1 + amp sin(psi + phase))` integrates to
@@ -92,7 +84,9 @@ pub fn rotor_angle(amp: f32, phase: f32, read: f32) -> f32 {
     read + amp * (libm::cosf(read + phase) - libm::cosf(phase))
 }
 
-/// [`reading_and_slope`] at the [`rotor_angle`] of `read`, by one sine and cosine (given
+/// The [`reading`] at the [`rotor_angle`] of `read`, and the reading's slope in the angle
+/// (`w amp cos(angle + phase)`: what a shift of the angle moves the reading by), by one
+/// sine and cosine (given
 /// `cos_phase`, the cosine of `phase`, a constant of a simulation): the rotor's angle lies
 /// `d = amp (cos(read + phase) - cos(phase))` past `read`, and the sine and cosine there are
 /// taken to second order in `d` from those at `read` (the error, `d^3 / 6`, is under the
@@ -132,7 +126,10 @@ mod tests {
             for (k, phase) in [0.3f32, 2.5, -1.0].into_iter().enumerate() {
                 for j in 0..64 {
                     let read = -3.1 + 0.1 * j as f32 + 0.01 * k as f32;
-                    let exact = reading_and_slope(amp, phase, 100.0, rotor_angle(amp, phase, read));
+                    // The composition written out, in f64.
+                    let x = (rotor_angle(amp, phase, read) + phase) as f64;
+                    let (a, w) = (amp as f64, 100.0f64);
+                    let exact = ((w * (1.0 + a * x.sin())) as f32, (w * a * x.cos()) as f32);
                     let given = (phase, libm::cosf(phase));
                     let (r, s) = reading_and_slope_at_read(amp, given, 100.0, read);
                     assert!((r - exact.0).abs() < bound, "{amp} {phase} {read}: {r} {exact:?}");
