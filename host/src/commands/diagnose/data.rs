@@ -2,6 +2,7 @@
 //! records with the quantities measured on them, a fitted model scored on both sets, and the
 //! conclusions the records cannot support.
 
+use super::stalled::Restarted;
 use super::verdict::{Candidate, HeldOut};
 use crate::csvio::OwnedRecord;
 use crate::fit::{Fit, FitOptions};
@@ -96,6 +97,9 @@ pub struct Scored {
     /// without current): what the significance rule and the ranking judge, so that an
     /// effect seen on the current channel counts as much as one seen on the speed.
     pub holdout_joint: f32,
+    /// Where the fit, an effect added to a model, stalled above a model nested in it and
+    /// was widened from there ([`super::stalled`]).
+    pub restarted: Option<Restarted>,
 }
 
 impl Data {
@@ -201,6 +205,7 @@ impl Data {
             holdout_rmse_current: holdout.rmse_current,
             holdout_joint: joint,
             fit,
+            restarted: None,
         })
     }
 

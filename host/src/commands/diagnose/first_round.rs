@@ -3,10 +3,10 @@
 
 use super::data::{Data, Scored};
 use super::effect_fit::{Peaks, UserFixes};
-use super::parallel::in_parallel;
 use super::regimes;
 use super::search_context::Context;
 use super::spectrum::without_ripple;
+use super::stalled::fitted_unstalled;
 use super::verdict::Holdout;
 use crate::fit::{fit_spec, fit_spec_unwidened, Fit, FitOptions};
 use anyhow::Result;
@@ -120,8 +120,7 @@ fn first_round<'a>(
         .filter(|e| (data.with_current || !e.needs_current()) && !never.contains(e))
         .filter(|e| *e != Effect::Cogging || peaks.detents.is_some())
         .collect();
-    let fits = in_parallel(usable.len(), |k| {
-        let effect = usable[k];
+    let add = |k: usize, effect: Effect| {
         say(format!(
             "fitting with {} ({}/{})",
             effect.name(),
@@ -129,11 +128,9 @@ fn first_round<'a>(
             usable.len()
         ));
         cx.add(spec, effect, &base_params)
-    });
-    let mut scored: Vec<(Effect, Scored)> = Vec::new();
-    for (effect, f) in usable.iter().zip(fits) {
-        scored.push((*effect, f?));
-    }
+    };
+    let fits = fitted_unstalled(&cx, &usable, baseline, add, say)?;
+    let mut scored: Vec<(Effect, Scored)> = usable.iter().copied().zip(fits).collect();
     scored.sort_by(|a, b| a.1.holdout_joint.total_cmp(&b.1.holdout_joint));
     let mut left_out_parents: Vec<(Effect, Scored)> = Vec::new();
     for p in usable.iter().filter_map(|e| e.parent()) {

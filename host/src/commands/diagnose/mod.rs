@@ -28,6 +28,7 @@ mod report_text;
 mod search;
 mod search_context;
 mod spectrum;
+mod stalled;
 mod stand_ins;
 mod verdict;
 mod widening;

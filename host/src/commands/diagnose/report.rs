@@ -9,6 +9,7 @@ use super::regime_shares::RegimeShare;
 use super::regimes::WhereReport;
 use super::remainder::{floor, unexplained, Remainder};
 use super::repeatability::Repeatability;
+use super::stalled::Restarted;
 use super::stand_ins::Judged;
 use super::widening::WidenedRefit;
 use super::WhatIsLeft;
@@ -78,6 +79,9 @@ pub struct EffectFit {
     pub effect_std: ByParam<Option<Num>>,
     /// Whether it passes the significance rule against the baseline.
     pub significant: bool,
+    /// Where its refit stalled above a model nested in it and was widened from there
+    /// (`null`: it did not).
+    pub restarted: Option<Restarted>,
 }
 
 /// Which effect, if any, and how much it helps.
@@ -314,6 +318,7 @@ impl DiagnoseReport {
                 ),
                 effect_std: effect_std(s, *e),
                 significant: first == Some(*e) || search.significant(*e, s),
+                restarted: s.restarted.clone(),
             })
             .collect();
         let verdict = Verdict {

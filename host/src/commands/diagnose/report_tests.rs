@@ -12,6 +12,22 @@ fn effect(name: &'static str, holdout: f32, significant: bool) -> EffectFit {
         params: ByParam(vec![]),
         effect_std: ByParam(vec![]),
         significant,
+        restarted: None,
+    }
+}
+
+/// `effect`, its refit stalled above Coulomb friction and widened from there.
+fn restarted(e: EffectFit) -> EffectFit {
+    EffectFit {
+        restarted: Some(crate::commands::diagnose::stalled::Restarted {
+            from: "coulomb_friction",
+            stalled: Num(3.9142),
+            nested: Num(3.2559),
+            widened: Num(1.9601),
+            evaluations: 4100,
+            decimation: 9,
+        }),
+        ..e
     }
 }
 
@@ -28,7 +44,7 @@ fn report(second: Option<&'static str>) -> DiagnoseReport {
         },
         effects: vec![
             effect("coulomb_friction", 0.3, true),
-            effect("sensor_delay", 0.69, false),
+            restarted(effect("sensor_delay", 0.69, false)),
         ],
         verdict: Verdict {
             effect: Some("coulomb_friction"),
@@ -118,6 +134,8 @@ fn text_reads_the_report() {
             "effects, best held-out misfit first:",
             "  coulomb_friction     train 0.5000  holdout 0.3000  significant",
             "  sensor_delay         train 0.5000  holdout 0.6900",
+            "                       its refit stalled above coulomb_friction (objective 3.9142 > \
+             3.2559): widened to 1.9601",
             "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s with the effects \
              below (94 % of the misfit above noise removed), params {\"tc\":0.1}",
             "then: quadratic_load: holdout rmse -> 0.2600 rad/s",
@@ -182,6 +200,13 @@ fn json_has_the_contract_fields() {
     assert!(v["effect_std"]["tc"].is_null());
     assert_eq!(v["second"], serde_json::json!({ "effect": null }));
     assert!(json["where"]["summary"].is_array());
+    assert!(json["effects"][0]["restarted"].is_null());
+    let r = &json["effects"][1]["restarted"];
+    assert_eq!(r["from"], "coulomb_friction");
+    assert_eq!(
+        (r["stalled"].as_f64(), r["decimation"].as_u64()),
+        (Some(3.9142), Some(9))
+    );
     let with = serde_json::to_value(report(Some("quadratic_load"))).unwrap();
     assert_eq!(with["verdict"]["second"]["effect_params"]["kq"], 4e-6);
 }

@@ -27,6 +27,9 @@ impl DiagnoseReport {
                 e.holdout_rmse.decimal(),
                 if e.significant { "  significant" } else { "" }
             );
+            if let Some(r) = &e.restarted {
+                s += &format!("  {:<20} {}\n", "", r.line());
+            }
         }
         let v = &self.verdict;
         match (v.effect, &v.chosen) {

@@ -14,6 +14,7 @@ use super::found::{as_shown, at_limit, rival, LookAlike, Search, StandingIn};
 use super::parallel::in_parallel;
 use super::regime_shares::{misfit_where_named_act, told_apart_where_it_acts};
 use super::search_context::{reduced, Context};
+use super::stalled::fitted_unstalled;
 use super::verdict::{predicts_better, significant, Holdout};
 use super::widening::widened_final;
 use crate::fit::FitOptions;
@@ -153,22 +154,21 @@ pub fn search(
             .filter(|e| !in_model.contains(e) && adds(e) && !passed_over.contains(e))
             .collect();
         let step = cx.for_adding(&candidates, &params)?;
-        let fits = in_parallel(candidates.len(), |k| {
-            let effect = candidates[k];
+        let add = |_, effect: Effect| {
             say(format!(
                 "fitting {} on top of {}",
                 effect.name(),
                 names.join(" + ")
             ));
             step.add(&model, effect, &params)
-        });
-        let mut passing: Vec<(Effect, Scored)> = Vec::new();
-        for (effect, f) in candidates.iter().zip(fits) {
-            let f = f?;
-            if significant(&reference, &f.candidate(*effect, &scales), &found.holdout) {
-                passing.push((*effect, f));
-            }
-        }
+        };
+        let fits = fitted_unstalled(&step, &candidates, &last.fit, add, &say)?;
+        let mut passing: Vec<(Effect, Scored)> = candidates
+            .iter()
+            .copied()
+            .zip(fits)
+            .filter(|(e, f)| significant(&reference, &f.candidate(*e, &scales), &found.holdout))
+            .collect();
         let best = passing
             .iter()
             .enumerate()

@@ -130,33 +130,36 @@ pub(super) fn reduced(set: &[Effect], effect: Effect, without: &[Effect]) -> Vec
         .collect()
 }
 
+/// A context on the records `data` of `motor` for the user's problem with the parameters
+/// of `fix` fixed (`--fix`), no order peaks (for tests).
+#[cfg(test)]
+pub(super) fn test_context<'a>(
+    data: &'a Data,
+    fix: &[(motor_id_shared::ParamId, f32)],
+    motor: ModelParams,
+) -> Context<'a> {
+    use super::spectrum::OrderPeak;
+    let fix = [crate::spec::FixSpec(fix.to_vec())];
+    Context {
+        data,
+        quiet: crate::fit::tests::quiet(),
+        spec: crate::spec::problem(&[], &fix).unwrap(),
+        fixes: UserFixes::of(&fix),
+        base_params: motor,
+        scales: data.scales(&motor),
+        peaks: Peaks {
+            ripple: OrderPeak::NONE,
+            detents: None,
+            cogging: OrderPeak::NONE,
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::commands::diagnose::data::simulated;
-    use crate::commands::diagnose::spectrum::OrderPeak;
-    use crate::fit::tests::quiet;
-    use crate::spec::{problem, FixSpec};
     use motor_id_shared::ParamId;
-
-    /// A context on one record of `motor` for the user's problem with the parameters of
-    /// `fix` fixed (`--fix`).
-    fn context<'a>(data: &'a Data, fix: &[(ParamId, f32)], motor: ModelParams) -> Context<'a> {
-        let fix = [FixSpec(fix.to_vec())];
-        Context {
-            data,
-            quiet: quiet(),
-            spec: problem(&[], &fix).unwrap(),
-            fixes: UserFixes::of(&fix),
-            base_params: motor,
-            scales: data.scales(&motor),
-            peaks: Peaks {
-                ripple: OrderPeak::NONE,
-                detents: None,
-                cogging: OrderPeak::NONE,
-            },
-        }
-    }
 
     #[test]
     fn a_refitted_model_frees_its_effects_fitted_values_and_keeps_the_user_s_fixes() {
@@ -168,14 +171,14 @@ mod tests {
             .with(ParamId::Tc, 0.05)
             .with(ParamId::Ts, 0.03)
             .with(ParamId::Ws, 20.0);
-        let cx = context(&data, &[], motor);
+        let cx = test_context(&data, &[], motor);
         let spec = cx.spec_of(&[Effect::StaticFriction], &start).unwrap();
         for id in [ParamId::Tc, ParamId::Ts, ParamId::Ws] {
             assert!(spec.free[id.index()], "{} held", id.name());
         }
         assert_eq!(spec.base, start);
         // The same effect when the user fixed its Coulomb torque: that value stays fixed.
-        let cx = context(&data, &[(ParamId::Tc, 0.05)], motor);
+        let cx = test_context(&data, &[(ParamId::Tc, 0.05)], motor);
         let spec = cx.spec_of(&[Effect::StaticFriction], &start).unwrap();
         assert!(!spec.free[ParamId::Tc.index()]);
         assert!(spec.free[ParamId::Ts.index()] && spec.free[ParamId::Ws.index()]);
@@ -185,7 +188,7 @@ mod tests {
     fn a_refitted_ripple_keeps_the_order_its_fit_holds() {
         let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
         let data = simulated(&motor, &motor, (1, 1));
-        let mut cx = context(&data, &[], motor);
+        let mut cx = test_context(&data, &[], motor);
         // The baseline's residual peaked at 17 cycles; the ripple was fitted at 14.
         cx.peaks.ripple.order = 17;
         let start = motor
@@ -210,7 +213,7 @@ mod tests {
         let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
         let data = simulated(&motor, &motor, (1, 1));
         let fix = [(ParamId::RippleCycles, 1.0), (ParamId::Tc, 0.0)];
-        let mut cx = context(&data, &fix, motor);
+        let mut cx = test_context(&data, &fix, motor);
         cx.peaks.ripple.order = 17;
         let spec = cx
             .spec_of(&[Effect::TachoRipple, Effect::StaticFriction], &motor)
@@ -226,7 +229,7 @@ mod tests {
         assert!(!leaves(Effect::CoulombFriction));
         assert!(leaves(Effect::StaticFriction) && leaves(Effect::TachoRipple));
         // Coulomb friction fixed at a value: the baseline holds it, nothing left to fit.
-        let cx = context(&data, &[(ParamId::Tc, 0.05)], motor);
+        let cx = test_context(&data, &[(ParamId::Tc, 0.05)], motor);
         assert!(!cx.fixes.leave_to_fit(Effect::CoulombFriction, &cx.spec));
         assert!(cx.fixes.leave_to_fit(Effect::StaticFriction, &cx.spec));
     }
@@ -237,7 +240,7 @@ mod tests {
         // ends are the worst phases (a box from 0 drew a search to its bound at 0).
         let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
         let data = simulated(&motor, &motor, (1, 1));
-        let mut cx = context(&data, &[], motor);
+        let mut cx = test_context(&data, &[], motor);
         cx.peaks.ripple.phase = 4.0;
         let spec = cx.spec_of(&[Effect::TachoRipple], &motor).unwrap();
         let (lo, hi) = spec.bounds[ParamId::RipplePhase.index()];
@@ -254,7 +257,7 @@ mod tests {
         let (lo, hi) = spec.bounds[ParamId::RipplePhase.index()];
         assert!((lo - (0.1 - pi)).abs() < 1e-6 && (hi - (0.1 + pi)).abs() < 1e-6);
         // The user's fixed phase stays.
-        let mut cx = context(&data, &[(ParamId::RipplePhase, 1.0)], motor);
+        let mut cx = test_context(&data, &[(ParamId::RipplePhase, 1.0)], motor);
         cx.peaks.ripple.phase = 4.0;
         let start = motor.with(ParamId::RipplePhase, 1.0);
         let spec = cx.spec_of(&[Effect::TachoRipple], &start).unwrap();

@@ -86,7 +86,7 @@ impl WidenedRefit {
 /// over blocks of several samples): not a tacho ripple's or cogging's cycles, which the
 /// mean over a block attenuates or aliases, nor a delay of a sample or less. Those are
 /// searched on every sample.
-fn seen_decimated(effect: Effect) -> bool {
+pub(super) fn seen_decimated(effect: Effect) -> bool {
     !matches!(
         effect,
         Effect::TachoRipple | Effect::Cogging | Effect::SensorDelay

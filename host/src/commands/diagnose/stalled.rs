@@ -1,0 +1,271 @@
+//! A candidate's refit that ends worse than a model nested in it, widened from there
+//! before it is judged (docs/ARCHITECTURE.md, the diagnosis' "Which").
+//!
+//! An effect added to a model holds that model (the effect switched off: its first
+//! parameter at zero), and an extension added beside its parent holds the parent's fit on
+//! the same model (its own part switched off). Its optimum on the training records cannot
+//! be worse than theirs, so a refit that ends more than 1 % above the training objective of
+//! one of them (`WIDER_GAIN`, the escalation's rule) stalled on its way there, and the
+//! significance rule would reject an effect for its search's fault: on the lab motor,
+//! static friction's refit stopped at a training misfit of 3.91 rad/s where Coulomb
+//! friction, nested in it, reaches 3.26. Such a refit is widened as the final model's is
+//! ([`super::widening`], [`widen_from`]): from the nested model's fit, its own parameters
+//! searched by the escalation's wider FFO, then everything refitted by least squares; the
+//! better fit of the two stands and is judged. A refit that ends below every nested model
+//! is not widened: a wider search of each candidate that stays above the noise would cost
+//! more than the whole search (a stall is not provable there).
+
+use super::data::Scored;
+use super::effect_fit::effects_alone;
+use super::parallel::in_parallel;
+use super::search_context::Context;
+use super::widening::seen_decimated;
+use crate::fit::{refit_from, widen_from, Fit};
+use crate::report::Num;
+use anyhow::Result;
+use motor_id_shared::fit::identify::WIDER_GAIN;
+use motor_id_shared::model::effects::Effect;
+use motor_id_shared::{ModelParams, ParamId};
+use serde::Serialize;
+use std::sync::OnceLock;
+
+/// A candidate's refit that stalled above a model nested in it, widened from that model's
+/// fit (an effect's `restarted` in the report).
+#[derive(Serialize, Debug, Clone)]
+pub struct Restarted {
+    /// The nested model: `the model it is added to`, or the entry the effect extends.
+    pub from: &'static str,
+    /// The training objective where the candidate's refit stalled.
+    pub stalled: Num,
+    /// The nested model's training objective.
+    pub nested: Num,
+    /// The training objective of the widened refit (taken when below `stalled`).
+    pub widened: Num,
+    /// Evaluations of the wider search on the records searched.
+    pub evaluations: u32,
+    /// Rows of a record per sample of the records searched (1: every sample).
+    pub decimation: usize,
+}
+
+impl Restarted {
+    /// What it did, in words (the effects' list of the text report).
+    pub fn line(&self) -> String {
+        format!(
+            "its refit stalled above {} (objective {:.4} > {:.4}): widened to {:.4}",
+            self.from, self.stalled.0, self.nested.0, self.widened.0
+        )
+    }
+}
+
+/// What a candidate's fit tells the fits of the entries that extend it: its name, its
+/// parameters and its training objective (`None` for a fit that failed).
+type Published = Option<(&'static str, ModelParams, f32)>;
+
+/// Sets a candidate's [`Published`] slot to `None` when its fit ends without setting it (a
+/// panic), so that no extension waits for it forever.
+struct Unpublished<'a>(&'a OnceLock<Published>);
+
+impl Drop for Unpublished<'_> {
+    fn drop(&mut self) {
+        let _ = self.0.set(None);
+    }
+}
+
+/// The `candidates` added to the model of the fit `reference`, each fitted by
+/// `add(k, effect)` on the machine's cores ([`in_parallel`]), and each refit that stalled
+/// above a model nested in it widened from there ([`Restarted`]; `say` tells which), in the
+/// candidates' order. An extension waits for its parent's fit when the parent is an earlier
+/// candidate (the catalogue lists parents first), so that its stall is judged against it;
+/// the restart then runs beside the other candidates' fits, and the result does not
+/// depend on the threads' timing.
+pub(super) fn fitted_unstalled(
+    cx: &Context,
+    candidates: &[Effect],
+    reference: &Fit,
+    add: impl Fn(usize, Effect) -> Result<Scored> + Sync,
+    say: &(impl Fn(String) + Sync),
+) -> Result<Vec<Scored>> {
+    let objective = |f: &Fit| f.result.cost.fitness();
+    let published: Vec<OnceLock<Published>> = candidates.iter().map(|_| OnceLock::new()).collect();
+    let fits = in_parallel(candidates.len(), |k| {
+        let effect = candidates[k];
+        let unpublished = Unpublished(&published[k]);
+        let fit = add(k, effect);
+        let mine = fit
+            .as_ref()
+            .ok()
+            .map(|s| (effect.name(), s.fit.result.params, objective(&s.fit)));
+        let _ = published[k].set(mine);
+        drop(unpublished);
+        let fit = fit?;
+        // The best nested model: the parent's fit beside it where that is better than the
+        // model both are added to (only an earlier candidate's: one a later job fits could
+        // wait on this one).
+        let parent = effect
+            .parent()
+            .and_then(|p| candidates[..k].iter().position(|e| *e == p))
+            .and_then(|j| published[j].wait().as_ref());
+        let (from, nested, nested_objective) = match parent {
+            Some(&(name, params, o)) if o < objective(reference) => (name, params, o),
+            _ => (
+                "the model it is added to",
+                reference.result.params,
+                objective(reference),
+            ),
+        };
+        if WIDER_GAIN * objective(&fit.fit) <= nested_objective {
+            return Ok(fit);
+        }
+        say(format!(
+            "{}'s refit stalled above {from}: widening it from there",
+            effect.name()
+        ));
+        restart(cx, effect, &fit, (from, &nested, nested_objective))
+    });
+    fits.into_iter().collect()
+}
+
+/// The candidate `effect`'s stalled fit `scored` widened from the fit `nested` of the
+/// model `from` nested in it (its training objective `nested_objective`): the better of
+/// the widened refit and `scored`, with what was done.
+fn restart(
+    cx: &Context,
+    effect: Effect,
+    scored: &Scored,
+    (from, nested, nested_objective): (&'static str, &ModelParams, f32),
+) -> Result<Scored> {
+    let spec = &scored.fit.spec;
+    // The nested fit as a point of the candidate's problem: its fixed values (the order a
+    // ripple is fitted at) the candidate's, its free ones within the candidate's box.
+    let mut start = *nested;
+    for id in ParamId::ALL {
+        let x = match spec.free[id.index()] {
+            true => {
+                let (lo, hi) = spec.bounds[id.index()];
+                start.get(id).clamp(lo, hi)
+            }
+            false => spec.base.get(id),
+        };
+        start.set(id, x);
+    }
+    let alone = effects_alone(spec, &[effect], &start);
+    let data = cx.data;
+    let wide = widen_from(
+        &data.train,
+        &cx.quiet,
+        &alone,
+        spec,
+        &start,
+        seen_decimated(effect),
+    )?;
+    // Where the wider search gains under 1 % on the nested model's own optimum there, the
+    // refit from the nested model is the candidate's fit.
+    let fit = match wide.fit {
+        Some(fit) => fit,
+        None => refit_from(&data.train, &cx.quiet, spec, &start)?,
+    };
+    let stalled = scored.fit.result.cost.fitness();
+    let widened = fit.result.cost.fitness();
+    let mut out = match widened < stalled {
+        true => data.score(fit)?,
+        false => scored.clone(),
+    };
+    out.restarted = Some(Restarted {
+        from,
+        stalled: Num(stalled),
+        nested: Num(nested_objective),
+        widened: Num(widened),
+        evaluations: wide.search_evaluations,
+        decimation: wide.decimation,
+    });
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::commands::diagnose::data::simulated;
+    use crate::commands::diagnose::search_context::test_context;
+    use crate::fit::tests::quiet;
+    use motor_id_shared::fit::space::ProblemSpec;
+
+    #[test]
+    fn a_refit_stalled_above_a_nested_model_is_widened_from_it() {
+        // A motor with Coulomb friction: static friction, which extends it, and a fan load
+        // are tried beside it. Each candidate's fit ended at a poor point of its problem
+        // (fitted in a box around it, reported with the problem's box).
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        let truth = motor.with(ParamId::Tc, 0.05);
+        let data = simulated(&truth, &truth, (6, 2));
+        let cx = test_context(&data, &[], motor);
+        let reference = refit_from(&data.train, &quiet(), &cx.spec, &motor).unwrap();
+        let coulomb = cx.add(&cx.spec, Effect::CoulombFriction, &motor).unwrap();
+        let stalled_in = |own: &[(ParamId, f32, f32, f32)]| {
+            let (mut wide, mut tight) = (cx.spec, cx.spec);
+            for &(id, lo, hi, at) in own {
+                wide.set_bounds(id, lo, hi).unwrap();
+                wide.free(id);
+                tight.set_bounds(id, at, 1.01 * at + 1e-6).unwrap();
+                tight.free(id);
+            }
+            let mut fit = refit_from(&data.train, &quiet(), &tight, &motor).unwrap();
+            fit.spec = wide;
+            data.score(fit).unwrap()
+        };
+        // Static friction's break-away of 0.05 N m over 200 rad/s, no Coulomb torque.
+        let stribeck = stalled_in(&[
+            (ParamId::Tc, 0.0, 0.5, 0.0),
+            (ParamId::Ts, 0.0, 0.5, 0.05),
+            (ParamId::Ws, 0.1, 250.0, 200.0),
+        ]);
+        // A fan load of 1e-4 N m s^2/rad^2 (9 N m at the top speed).
+        let fan = stalled_in(&[(ParamId::Kq, 0.0, 1e-3, 1e-4)]);
+        let objective = |s: &Scored| s.fit.result.cost.fitness();
+        let nested = objective(&coulomb);
+        assert!(objective(&stribeck) > 1.5 * nested, "stalled above Coulomb");
+        assert!(objective(&stribeck) < objective(&data.score(reference.clone()).unwrap()));
+        assert!(objective(&fan) > 1.5 * reference.result.cost.fitness());
+        let effects = [
+            Effect::CoulombFriction,
+            Effect::StaticFriction,
+            Effect::QuadraticLoad,
+        ];
+        let fits = [coulomb.clone(), stribeck.clone(), fan.clone()];
+        let add = |k: usize, e: Effect| {
+            assert_eq!(e, effects[k]);
+            Ok(fits[k].clone())
+        };
+        let out = fitted_unstalled(&cx, &effects, &reference, add, &|_| {}).unwrap();
+        // Coulomb friction, below every model nested in it: as it was.
+        assert!(out[0].restarted.is_none());
+        assert_eq!(objective(&out[0]), nested);
+        // Static friction from Coulomb friction's fit, the better of its nested models:
+        // no worse than it by 1 %.
+        let (stribeck_now, fan_now) = (&out[1], &out[2]);
+        let r = stribeck_now
+            .restarted
+            .as_ref()
+            .expect("static friction widened");
+        assert_eq!(r.from, "coulomb_friction");
+        assert!(r.stalled.0 == objective(&stribeck) && r.nested.0 == nested);
+        assert!(objective(stribeck_now) < 1.01 * nested, "{r:?}");
+        assert!((stribeck_now.fit.result.params.get(ParamId::Tc) - 0.05).abs() < 0.005);
+        assert!(r.line().contains("stalled above coulomb_friction"));
+        // The fan load from the model it is added to.
+        let r = fan_now.restarted.as_ref().expect("the fan load widened");
+        assert_eq!(r.from, "the model it is added to");
+        assert!(objective(fan_now) < 1.01 * reference.result.cost.fitness());
+        assert!(fan_now.fit.result.params.get(ParamId::Kq) < 1e-5);
+        // The candidates' problems stand.
+        let free = |s: &ProblemSpec| s.free;
+        assert_eq!(free(&stribeck_now.fit.spec), free(&stribeck.fit.spec));
+        // Static friction listed before Coulomb friction is judged against the model it
+        // is added to alone (it does not wait for a later job), below which it ended.
+        let swapped = [stribeck.clone(), coulomb.clone()];
+        let effects = [Effect::StaticFriction, Effect::CoulombFriction];
+        let add = |k: usize, _| Ok(swapped[k].clone());
+        let out = fitted_unstalled(&cx, &effects, &reference, add, &|_| {}).unwrap();
+        assert!(out.iter().all(|s| s.restarted.is_none()));
+        assert_eq!(objective(&out[0]), objective(&stribeck));
+    }
+}
