@@ -7,7 +7,7 @@
 //! against the truth.
 //!
 //! `cargo run --release -p motor-id-tests --example blind_check -- [SEEDS] [RATES] [CASES]`
-//! e.g. `-- 8 2000,5000,10000 all` (the defaults); CASES is `all` or names joined by `,`
+//! e.g. `-- 8 2000,5000,10000 all` (the defaults; SEEDS `N` runs seeds 1 to N, `A-B` seeds A to B); CASES is `all` or names joined by `,`
 //! (`null`, `static`, `asymmetric`, `deadtime`, `offset`, `limit`, `cogging` (told its
 //! detents per revolution), `heating` (winding heating, on 40 s reversing cycles), the
 //! withheld `cogging-untold`, a `delay` of the speed reading of 0.5-1 sample, pairs as
@@ -29,15 +29,26 @@ use motor_id_tests::blind::{
 };
 use motor_id_tests::partial_stand_ins;
 use std::collections::BTreeSet;
+use std::ops::RangeInclusive;
+
+/// The seeds of the argument SEEDS: `N` is 1 to N, `A-B` is A to B.
+fn seed_range(arg: &str) -> RangeInclusive<u64> {
+    let seed = |s: &str| s.parse::<u64>().expect("SEEDS: N or A-B");
+    match arg.split_once('-') {
+        Some((a, b)) => seed(a)..=seed(b),
+        None => 1..=seed(arg),
+    }
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let seeds: u64 = args.first().map_or(8, |a| a.parse().expect("SEEDS"));
+    let seeds = args.first().map_or(1..=8, |a| seed_range(a));
+    let n_seeds = seeds.clone().count();
     let rates: Vec<f64> = args.get(1).map_or(vec![2000.0, 5000.0, 10000.0], |a| {
         a.split(',').map(|r| r.parse().expect("RATES")).collect()
     });
     if let Some(pick) = args.get(2).and_then(|a| a.strip_prefix("without")) {
-        left_out(seeds, &rates, pick.strip_prefix(':'));
+        left_out(seeds.clone(), &rates, pick.strip_prefix(':'));
         return;
     }
     let mut cases: Vec<Vec<&str>> = vec![vec![]];
@@ -93,7 +104,7 @@ fn main() {
         for &rate in &rates {
             let (mut right, mut forced, mut unexplained, mut secs) = (0, 0, 0, 0.0);
             let (mut lo, mut hi) = (f64::MAX, 0f64);
-            for seed in 1..=seeds {
+            for seed in seeds.clone() {
                 let dir = tempfile::tempdir().expect("temporary directory");
                 // BLIND_KEEP=DIR keeps the records and reports (one folder per case).
                 let kept = std::env::var_os("BLIND_KEEP").map(|d| {
@@ -126,12 +137,12 @@ fn main() {
                 secs += o.seconds;
             }
             right_all += right;
-            total += seeds as usize;
+            total += n_seeds;
             println!(
-                "| {} | {} kHz | {right}/{seeds} | {forced} | {unexplained} | {lo:.2}-{hi:.2} | {:.1} |",
+                "| {} | {} kHz | {right}/{n_seeds} | {forced} | {unexplained} | {lo:.2}-{hi:.2} | {:.1} |",
                 label(case),
                 rate / 1000.0,
-                secs / seeds as f64
+                secs / n_seeds as f64
             );
         }
     }
@@ -143,7 +154,8 @@ fn main() {
 }
 
 /// The table of each entry left out (`--without`): its effect alone in the plant.
-fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
+fn left_out(seeds: RangeInclusive<u64>, rates: &[f64], pick: Option<&str>) {
+    let n_seeds = seeds.clone().count();
     let mut effects: Vec<&str> = OLDER.to_vec();
     effects.extend(SINGLES);
     effects.push("delay");
@@ -165,7 +177,7 @@ fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
             let (mut forced, mut unexplained) = (0, 0);
             let mut partial: BTreeSet<String> = BTreeSet::new();
             let mut wheres: BTreeSet<String> = BTreeSet::new();
-            for seed in 1..=seeds {
+            for seed in seeds.clone() {
                 let dir = tempfile::tempdir().expect("temporary directory");
                 let kept = std::env::var_os("BLIND_KEEP").map(|d| {
                     let d =
@@ -200,10 +212,10 @@ fn left_out(seeds: u64, rates: &[f64], pick: Option<&str>) {
                 wheres.insert(place);
             }
             forced_all += forced;
-            explained_all += seeds as usize - unexplained;
-            total += seeds as usize;
+            explained_all += n_seeds - unexplained;
+            total += n_seeds;
             println!(
-                "| {effect} without {left} | {} kHz | {forced}/{seeds} | {unexplained}/{seeds} | {} | {} |",
+                "| {effect} without {left} | {} kHz | {forced}/{n_seeds} | {unexplained}/{n_seeds} | {} | {} |",
                 rate / 1000.0,
                 partial.into_iter().collect::<Vec<_>>().join(", "),
                 wheres.into_iter().collect::<Vec<_>>().join("; ")
