@@ -677,3 +677,32 @@ fn a_fix_at_zero_switches_an_effect_off() {
     assert!(!named.iter().any(|n| n == "coulomb_friction"), "{v}");
     assert!(v["params"]["tc"].as_f64().is_none_or(|tc| tc == 0.0), "{v}");
 }
+
+#[test]
+fn an_extension_s_refit_stalled_above_its_parent_is_fitted_again_from_it() {
+    // Asymmetric friction and a current offset (the blind harness' case, 5 kHz): static
+    // friction's first fit, started from no Coulomb torque, stopped at a training objective
+    // 10 % above that of Coulomb friction, which it extends and holds, and was ranked on
+    // that: a held-out speed misfit of 25 rad/s against Coulomb friction's 4.1. Fitted
+    // again from Coulomb friction's fit, it predicts the held-out records as well as it.
+    let dir = tempfile::tempdir().unwrap();
+    let o = blind::check(dir.path(), &["asymmetric", "offset"], 5000.0, 1);
+    assert_named(&o, &["asymmetric_friction", "current_offset"]);
+    let text = std::fs::read_to_string(dir.path().join("diag.json")).unwrap();
+    let report: Value = serde_json::from_str(&text).unwrap();
+    let effect = |name: &str| {
+        let all = report["effects"].as_array().unwrap();
+        all.iter().find(|e| e["name"] == name).unwrap().clone()
+    };
+    let (stribeck, coulomb) = (effect("static_friction"), effect("coulomb_friction"));
+    let joint = |e: &Value| e["holdout_joint"].as_f64().unwrap();
+    assert!(
+        joint(&stribeck) < 1.1 * joint(&coulomb),
+        "{stribeck}\n{coulomb}"
+    );
+    assert_eq!(
+        stribeck["restarted"]["from"], "coulomb_friction",
+        "{stribeck}"
+    );
+    assert!(coulomb["restarted"].is_null(), "{coulomb}");
+}
