@@ -181,23 +181,9 @@ pub fn widen_from(
     start: &ModelParams,
     decimate: bool,
 ) -> Result<Widened> {
-    let samples: usize = records.iter().map(|r| r.omega.len()).sum();
-    let k = match decimate {
-        true => samples.div_ceil(WIDENED_SAMPLES).max(1),
-        false => 1,
-    };
-    // A record too short for the decimation (or with a coast-down within one block) is
-    // searched whole; none decimated, the records themselves.
-    let decimated: Vec<Option<OwnedRecord>> = match k {
-        1 => Vec::new(),
-        _ => records.iter().map(|r| r.decimated(k)).collect(),
-    };
-    let coarse: Option<Vec<OwnedRecord>> = decimated.iter().any(Option::is_some).then(|| {
-        let pairs = decimated.into_iter().zip(records);
-        pairs.map(|(d, r)| d.unwrap_or_else(|| r.clone())).collect()
-    });
+    let coarse = searched_records(records, decimate);
     let (searched, k) = match &coarse {
-        Some(c) => (&c[..], k),
+        Some((c, k)) => (&c[..], *k),
         None => (records, 1),
     };
     let pipeline = IdentifyConfig::default_pipeline(opts.seed);
@@ -225,6 +211,30 @@ pub fn widen_from(
         searched_widened: wide.cost.fitness(),
         search_evaluations: local.evaluations + wide.evaluations,
         decimation: k,
+    })
+}
+
+/// The records a widened search runs on ([`widen_from`]): with `decimate`, `records`
+/// decimated to at most [`WIDENED_SAMPLES`] (as `--decimate` reads a file), with the rows
+/// per sample; a record that cannot be decimated (too short, a coast-down within one block)
+/// whole. `None` where none is decimated: the records themselves.
+pub fn searched_records(
+    records: &[OwnedRecord],
+    decimate: bool,
+) -> Option<(Vec<OwnedRecord>, usize)> {
+    let samples: usize = records.iter().map(|r| r.omega.len()).sum();
+    let k = match decimate {
+        true => samples.div_ceil(WIDENED_SAMPLES).max(1),
+        false => 1,
+    };
+    if k == 1 {
+        return None;
+    }
+    let decimated: Vec<Option<OwnedRecord>> = records.iter().map(|r| r.decimated(k)).collect();
+    decimated.iter().any(Option::is_some).then(|| {
+        let pairs = decimated.into_iter().zip(records);
+        let coarse = pairs.map(|(d, r)| d.unwrap_or_else(|| r.clone())).collect();
+        (coarse, k)
     })
 }
 

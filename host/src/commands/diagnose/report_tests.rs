@@ -23,8 +23,9 @@ fn restarted(e: EffectFit) -> EffectFit {
             from: "coulomb_friction",
             stalled: Num(3.9142),
             nested: Num(3.2559),
-            widened: Num(1.9601),
-            evaluations: 4100,
+            refitted: Num(1.9601),
+            wider: false,
+            evaluations: 410,
             decimation: 9,
         }),
         ..e
@@ -135,7 +136,7 @@ fn text_reads_the_report() {
             "  coulomb_friction     train 0.5000  holdout 0.3000  significant",
             "  sensor_delay         train 0.5000  holdout 0.6900",
             "                       its refit stalled above coulomb_friction (objective 3.9142 > \
-             3.2559): widened to 1.9601",
+             3.2559): searched again from there to 1.9601",
             "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s with the effects \
              below (94 % of the misfit above noise removed), params {\"tc\":0.1}",
             "then: quadratic_load: holdout rmse -> 0.2600 rad/s",

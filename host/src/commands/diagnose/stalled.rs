@@ -1,5 +1,5 @@
-//! A candidate's refit that ends worse than a model nested in it, widened from there
-//! before it is judged (docs/ARCHITECTURE.md, the diagnosis' "Which").
+//! A candidate's refit that ends worse than a model nested in it, searched again from
+//! there before it is judged (docs/ARCHITECTURE.md, the diagnosis' "Which").
 //!
 //! An effect added to a model holds that model (the effect switched off: its first
 //! parameter at zero), and an extension added beside its parent holds the parent's fit on
@@ -8,19 +8,23 @@
 //! one of them (`WIDER_GAIN`, the escalation's rule) stalled on its way there, and the
 //! significance rule would reject an effect for its search's fault: on the lab motor,
 //! static friction's refit stopped at a training misfit of 3.91 rad/s where Coulomb
-//! friction, nested in it, reaches 3.26. Such a refit is widened as the final model's is
-//! ([`super::widening`], [`widen_from`]): from the nested model's fit, its own parameters
-//! searched by the escalation's wider FFO, then everything refitted by least squares; the
-//! better fit of the two stands and is judged. A refit that ends below every nested model
-//! is not widened: a wider search of each candidate that stays above the noise would cost
-//! more than the whole search (a stall is not provable there).
+//! friction, nested in it, reaches 3.26. Such a refit is searched again from the nested
+//! model's fit in the escalation's order: first the short search of the effect's own
+//! parameters' basin that its fit ran from the model it was added to, on the training
+//! records decimated as the wider search reads them ([`searched_records`]), and least
+//! squares with everything free on every sample from its best; where that still ends above
+//! the nested model, the escalation's wider FFO as the final model's widening runs it
+//! ([`super::widening`], [`widen_from`]). The better fit of the stalled and the new one
+//! stands and is judged. A refit that ends below every nested model is not searched again:
+//! a wider search of each candidate that stays above the noise would cost more than the
+//! whole search (a stall is not provable there).
 
 use super::data::Scored;
 use super::effect_fit::effects_alone;
 use super::parallel::in_parallel;
 use super::search_context::Context;
 use super::widening::seen_decimated;
-use crate::fit::{refit_from, widen_from, Fit};
+use crate::fit::{fit_basin_from, refit_from, searched_records, widen_from, Fit};
 use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
@@ -29,8 +33,8 @@ use motor_id_shared::{ModelParams, ParamId};
 use serde::Serialize;
 use std::sync::OnceLock;
 
-/// A candidate's refit that stalled above a model nested in it, widened from that model's
-/// fit (an effect's `restarted` in the report).
+/// A candidate's refit that stalled above a model nested in it, searched again from that
+/// model's fit (an effect's `restarted` in the report).
 #[derive(Serialize, Debug, Clone)]
 pub struct Restarted {
     /// The nested model: `the model it is added to`, or the entry the effect extends.
@@ -39,9 +43,14 @@ pub struct Restarted {
     pub stalled: Num,
     /// The nested model's training objective.
     pub nested: Num,
-    /// The training objective of the widened refit (taken when below `stalled`).
-    pub widened: Num,
-    /// Evaluations of the wider search on the records searched.
+    /// The training objective of the fit from the nested model (taken when below
+    /// `stalled`).
+    pub refitted: Num,
+    /// Whether the wider search ran: the basin's search from the nested model still ended
+    /// above it.
+    pub wider: bool,
+    /// Evaluations of the searches on the records searched (the basin's, and the wider
+    /// one's when it ran).
     pub evaluations: u32,
     /// Rows of a record per sample of the records searched (1: every sample).
     pub decimation: usize,
@@ -50,9 +59,13 @@ pub struct Restarted {
 impl Restarted {
     /// What it did, in words (the effects' list of the text report).
     pub fn line(&self) -> String {
+        let how = match self.wider {
+            true => "searched again, widened,",
+            false => "searched again",
+        };
         format!(
-            "its refit stalled above {} (objective {:.4} > {:.4}): widened to {:.4}",
-            self.from, self.stalled.0, self.nested.0, self.widened.0
+            "its refit stalled above {} (objective {:.4} > {:.4}): {how} from there to {:.4}",
+            self.from, self.stalled.0, self.nested.0, self.refitted.0
         )
     }
 }
@@ -73,7 +86,7 @@ impl Drop for Unpublished<'_> {
 
 /// The `candidates` added to the model of the fit `reference`, each fitted by
 /// `add(k, effect)` on the machine's cores ([`in_parallel`]), and each refit that stalled
-/// above a model nested in it widened from there ([`Restarted`]; `say` tells which), in the
+/// above a model nested in it searched again from there ([`Restarted`]; `say` tells which), in the
 /// candidates' order. An extension waits for its parent's fit when the parent is an earlier
 /// candidate (the catalogue lists parents first), so that its stall is judged against it;
 /// the restart then runs beside the other candidates' fits, and the result does not
@@ -117,7 +130,7 @@ pub(super) fn fitted_unstalled(
             return Ok(fit);
         }
         say(format!(
-            "{}'s refit stalled above {from}: widening it from there",
+            "{}'s refit stalled above {from}: searching it again from there",
             effect.name()
         ));
         restart(cx, effect, &fit, (from, &nested, nested_objective))
@@ -125,9 +138,9 @@ pub(super) fn fitted_unstalled(
     fits.into_iter().collect()
 }
 
-/// The candidate `effect`'s stalled fit `scored` widened from the fit `nested` of the
+/// The candidate `effect`'s stalled fit `scored` searched again from the fit `nested` of the
 /// model `from` nested in it (its training objective `nested_objective`): the better of
-/// the widened refit and `scored`, with what was done.
+/// the new fit and `scored`, with what was done.
 fn restart(
     cx: &Context,
     effect: Effect,
@@ -150,23 +163,33 @@ fn restart(
     }
     let alone = effects_alone(spec, &[effect], &start);
     let data = cx.data;
-    let wide = widen_from(
-        &data.train,
-        &cx.quiet,
-        &alone,
-        spec,
-        &start,
-        seen_decimated(effect),
-    )?;
-    // Where the wider search gains under 1 % on the nested model's own optimum there, the
-    // refit from the nested model is the candidate's fit.
-    let fit = match wide.fit {
-        Some(fit) => fit,
-        None => refit_from(&data.train, &cx.quiet, spec, &start)?,
-    };
+    let opts = &cx.quiet;
+    // The escalation's order: first the short search of the effect's own basin (the one
+    // its fit ran from the model it was added to), on the records the wider search reads,
+    // and least squares on every sample from its best.
+    let decimate = seen_decimated(effect);
+    let coarse = searched_records(&data.train, decimate);
+    let (searched, decimation) = coarse
+        .as_ref()
+        .map_or((&data.train[..], 1), |(c, k)| (&c[..], *k));
+    let basin = fit_basin_from(searched, opts, &alone, &start)?;
+    let mut evaluations = basin.result.evaluations;
+    let mut fit = refit_from(&data.train, opts, spec, &basin.result.params)?;
+    // Where that still ends above the nested model, the wider search.
+    let wider = WIDER_GAIN * fit.result.cost.fitness() > nested_objective;
+    if wider {
+        let wide = widen_from(&data.train, opts, &alone, spec, &start, decimate)?;
+        evaluations += wide.search_evaluations;
+        if let Some(better) = wide
+            .fit
+            .filter(|f| f.result.cost.fitness() < fit.result.cost.fitness())
+        {
+            fit = better;
+        }
+    }
     let stalled = scored.fit.result.cost.fitness();
-    let widened = fit.result.cost.fitness();
-    let mut out = match widened < stalled {
+    let refitted = fit.result.cost.fitness();
+    let mut out = match refitted < stalled {
         true => data.score(fit)?,
         false => scored.clone(),
     };
@@ -174,9 +197,10 @@ fn restart(
         from,
         stalled: Num(stalled),
         nested: Num(nested_objective),
-        widened: Num(widened),
-        evaluations: wide.search_evaluations,
-        decimation: wide.decimation,
+        refitted: Num(refitted),
+        wider,
+        evaluations,
+        decimation,
     });
     Ok(out)
 }
@@ -190,7 +214,7 @@ mod tests {
     use motor_id_shared::fit::space::ProblemSpec;
 
     #[test]
-    fn a_refit_stalled_above_a_nested_model_is_widened_from_it() {
+    fn a_refit_stalled_above_a_nested_model_is_searched_again_from_it() {
         // A motor with Coulomb friction: static friction, which extends it, and a fan load
         // are tried beside it. Each candidate's fit ended at a poor point of its problem
         // (fitted in a box around it, reported with the problem's box).
@@ -245,14 +269,17 @@ mod tests {
         let r = stribeck_now
             .restarted
             .as_ref()
-            .expect("static friction widened");
+            .expect("static friction searched again");
         assert_eq!(r.from, "coulomb_friction");
         assert!(r.stalled.0 == objective(&stribeck) && r.nested.0 == nested);
         assert!(objective(stribeck_now) < 1.01 * nested, "{r:?}");
         assert!((stribeck_now.fit.result.params.get(ParamId::Tc) - 0.05).abs() < 0.005);
         assert!(r.line().contains("stalled above coulomb_friction"));
         // The fan load from the model it is added to.
-        let r = fan_now.restarted.as_ref().expect("the fan load widened");
+        let r = fan_now
+            .restarted
+            .as_ref()
+            .expect("the fan load searched again");
         assert_eq!(r.from, "the model it is added to");
         assert!(objective(fan_now) < 1.01 * reference.result.cost.fitness());
         assert!(fan_now.fit.result.params.get(ParamId::Kq) < 1e-5);
