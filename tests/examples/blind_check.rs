@@ -7,8 +7,8 @@
 //! against the truth.
 //!
 //! `cargo run --release -p motor-id-tests --example blind_check -- [SEEDS] [RATES] [CASES]`
-//! e.g. `-- 8 2000,5000,10000 all` (the defaults; SEEDS `N` runs seeds 1 to N, `A-B` seeds A to B); CASES is `all` or names joined by `,`
-//! (`null`, `static`, `asymmetric`, `deadtime`, `offset`, `limit`, `cogging` (told its
+//! e.g. `-- 8 2000,5000,10000 all` (the defaults; SEEDS `N` runs seeds 1 to N, `A-B`
+//! seeds A to B); CASES is `all` or names joined by `,` (`null`, `static`, `asymmetric`, `deadtime`, `offset`, `limit`, `cogging` (told its
 //! detents per revolution), `heating` (winding heating, on 40 s reversing cycles), the
 //! withheld `cogging-untold`, a `delay` of the speed reading of 0.5-1 sample, pairs as
 //! `static+offset` or `static+cogging-untold`; `all` also holds the older entries
@@ -35,7 +35,11 @@ use std::ops::RangeInclusive;
 fn seed_range(arg: &str) -> RangeInclusive<u64> {
     let seed = |s: &str| s.parse::<u64>().expect("SEEDS: N or A-B");
     match arg.split_once('-') {
-        Some((a, b)) => seed(a)..=seed(b),
+        Some((a, b)) => {
+            let (a, b) = (seed(a), seed(b));
+            assert!(a <= b, "SEEDS: A-B with A at most B");
+            a..=b
+        }
         None => 1..=seed(arg),
     }
 }

@@ -98,7 +98,7 @@ pub struct Scored {
     /// effect seen on the current channel counts as much as one seen on the speed.
     pub holdout_joint: f32,
     /// Where the fit, an effect added to a model, stalled above a model nested in it and
-    /// was widened from there ([`super::stalled`]).
+    /// was searched again from there ([`super::stalled`]).
     pub restarted: Option<Restarted>,
 }
 

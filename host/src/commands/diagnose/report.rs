@@ -79,7 +79,7 @@ pub struct EffectFit {
     pub effect_std: ByParam<Option<Num>>,
     /// Whether it passes the significance rule against the baseline.
     pub significant: bool,
-    /// Where its refit stalled above a model nested in it and was widened from there
+    /// Where its refit stalled above a model nested in it and was searched again from there
     /// (`null`: it did not).
     pub restarted: Option<Restarted>,
 }

@@ -16,7 +16,7 @@ fn effect(name: &'static str, holdout: f32, significant: bool) -> EffectFit {
     }
 }
 
-/// `effect`, its refit stalled above Coulomb friction and widened from there.
+/// `effect`, its refit stalled above Coulomb friction and searched again from there.
 fn restarted(e: EffectFit) -> EffectFit {
     EffectFit {
         restarted: Some(crate::commands::diagnose::stalled::Restarted {

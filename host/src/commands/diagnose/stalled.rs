@@ -28,6 +28,7 @@ use crate::fit::{fit_basin_from, refit_from, searched_records, widen_from, Fit};
 use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
+use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::Effect;
 use motor_id_shared::{ModelParams, ParamId};
 use serde::Serialize;
@@ -126,6 +127,9 @@ pub(super) fn fitted_unstalled(
                 objective(reference),
             ),
         };
+        let Some(start) = nested_point(effect, &fit.fit.spec, &nested) else {
+            return Ok(fit);
+        };
         if WIDER_GAIN * objective(&fit.fit) <= nested_objective {
             return Ok(fit);
         }
@@ -133,35 +137,58 @@ pub(super) fn fitted_unstalled(
             "{}'s refit stalled above {from}: searching it again from there",
             effect.name()
         ));
-        restart(cx, effect, &fit, (from, &nested, nested_objective))
+        // The search again is a second opinion: where it fails (a record its start cannot
+        // simulate), the stalled fit is judged, as before it.
+        match restart(cx, effect, &fit, (from, &start, nested_objective)) {
+            Ok(again) => Ok(again),
+            Err(e) => {
+                eprintln!(
+                    "warning: {}'s refit searched again failed ({e:#}); its stalled fit is judged",
+                    effect.name()
+                );
+                Ok(fit)
+            }
+        }
     });
     fits.into_iter().collect()
 }
 
-/// The candidate `effect`'s stalled fit `scored` searched again from the fit `nested` of the
-/// model `from` nested in it (its training objective `nested_objective`): the better of
-/// the new fit and `scored`, with what was done.
-fn restart(
-    cx: &Context,
-    effect: Effect,
-    scored: &Scored,
-    (from, nested, nested_objective): (&'static str, &ModelParams, f32),
-) -> Result<Scored> {
-    let spec = &scored.fit.spec;
-    // The nested fit as a point of the candidate's problem: its fixed values (the order a
-    // ripple is fitted at) the candidate's, its free ones within the candidate's box.
+/// The nested model's parameters `nested` as a point of `effect`'s problem `spec`: its fixed
+/// values (the order a ripple is fitted at) the candidate's, its free ones within the
+/// candidate's box. `None` where the effect's switch (its first parameter, 0 for off) lies
+/// outside its box there (a current limit's `imax`, a winding's `rth`): the nested model is
+/// then no point of the candidate's problem, and no stall is proven by it.
+fn nested_point(effect: Effect, spec: &ProblemSpec, nested: &ModelParams) -> Option<ModelParams> {
     let mut start = *nested;
     for id in ParamId::ALL {
         let x = match spec.free[id.index()] {
             true => {
                 let (lo, hi) = spec.bounds[id.index()];
-                start.get(id).clamp(lo, hi)
+                let x = start.get(id);
+                if effect.params().first() == Some(&id) && !(lo..=hi).contains(&x) {
+                    return None;
+                }
+                x.clamp(lo, hi)
             }
             false => spec.base.get(id),
         };
         start.set(id, x);
     }
-    let alone = effects_alone(spec, &[effect], &start);
+    Some(start)
+}
+
+/// The candidate `effect`'s stalled fit `scored` searched again from `start`, the fit of
+/// the model `from` nested in it as a point of its problem ([`nested_point`]; its training
+/// objective `nested_objective`): the better of the new fit and `scored`, with what was
+/// done.
+fn restart(
+    cx: &Context,
+    effect: Effect,
+    scored: &Scored,
+    (from, start, nested_objective): (&'static str, &ModelParams, f32),
+) -> Result<Scored> {
+    let spec = &scored.fit.spec;
+    let alone = effects_alone(spec, &[effect], start);
     let data = cx.data;
     let opts = &cx.quiet;
     // The escalation's order: first the short search of the effect's own basin (the one
@@ -172,13 +199,13 @@ fn restart(
     let (searched, decimation) = coarse
         .as_ref()
         .map_or((&data.train[..], 1), |(c, k)| (&c[..], *k));
-    let basin = fit_basin_from(searched, opts, &alone, &start)?;
+    let basin = fit_basin_from(searched, opts, &alone, start)?;
     let mut evaluations = basin.result.evaluations;
     let mut fit = refit_from(&data.train, opts, spec, &basin.result.params)?;
     // Where that still ends above the nested model, the wider search.
     let wider = WIDER_GAIN * fit.result.cost.fitness() > nested_objective;
     if wider {
-        let wide = widen_from(&data.train, opts, &alone, spec, &start, decimate)?;
+        let wide = widen_from(&data.train, opts, &alone, spec, start, decimate)?;
         evaluations += wide.search_evaluations;
         if let Some(better) = wide
             .fit
@@ -249,12 +276,22 @@ mod tests {
         assert!(objective(&stribeck) > 1.5 * nested, "stalled above Coulomb");
         assert!(objective(&stribeck) < objective(&data.score(reference.clone()).unwrap()));
         assert!(objective(&fan) > 1.5 * reference.result.cost.fitness());
+        // A drive's current limit of 2 A (its box from 0.5 A: no point of it is the motor
+        // without a limit).
+        let limit = stalled_in(&[(ParamId::Imax, 0.5, 40.0, 2.0)]);
+        assert!(objective(&limit) > 1.5 * reference.result.cost.fitness());
         let effects = [
             Effect::CoulombFriction,
             Effect::StaticFriction,
             Effect::QuadraticLoad,
+            Effect::CurrentLimit,
         ];
-        let fits = [coulomb.clone(), stribeck.clone(), fan.clone()];
+        let fits = [
+            coulomb.clone(),
+            stribeck.clone(),
+            fan.clone(),
+            limit.clone(),
+        ];
         let add = |k: usize, e: Effect| {
             assert_eq!(e, effects[k]);
             Ok(fits[k].clone())
@@ -283,6 +320,9 @@ mod tests {
         assert_eq!(r.from, "the model it is added to");
         assert!(objective(fan_now) < 1.01 * reference.result.cost.fitness());
         assert!(fan_now.fit.result.params.get(ParamId::Kq) < 1e-5);
+        // The current limit: no stall proven, its fit as it was.
+        assert!(out[3].restarted.is_none());
+        assert_eq!(objective(&out[3]), objective(&limit));
         // The candidates' problems stand.
         let free = |s: &ProblemSpec| s.free;
         assert_eq!(free(&stribeck_now.fit.spec), free(&stribeck.fit.spec));
