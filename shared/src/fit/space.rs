@@ -98,6 +98,23 @@ impl ProblemSpec {
             *f = true;
         }
     }
+
+    /// `p` as a point of this problem: each free parameter clamped to its bounds, each held
+    /// one at its held value (`base`).
+    pub fn point(&self, p: &ModelParams) -> ModelParams {
+        let mut out = *p;
+        for id in ParamId::ALL {
+            let x = match self.free[id.index()] {
+                true => {
+                    let (lo, hi) = self.bounds[id.index()];
+                    p.get(id).clamp(lo, hi)
+                }
+                false => self.base.get(id),
+            };
+            out.set(id, x);
+        }
+        out
+    }
 }
 
 /// One free parameter.
@@ -277,5 +294,29 @@ mod tests {
             assert!(space.fixing(&at, ParamId::Ra, -1.0).is_err());
             assert!(space.fixing(&at, ParamId::Ra, f32::NAN).is_err());
         }
+    }
+
+    #[test]
+    fn a_point_of_a_problem_is_clamped_where_free_and_held_where_fixed() {
+        let mut spec = ProblemSpec::default();
+        spec.set_bounds(ParamId::Tc, 0.01, 0.05).unwrap();
+        spec.free(ParamId::Tc);
+        spec.fix(ParamId::Ra, 2.5).unwrap();
+        let p = ModelParams::PAPER_MOTOR
+            .with(ParamId::Ra, 9.0)
+            .with(ParamId::Tc, 0.0)
+            .with(ParamId::Kv, 1e9);
+        let q = spec.point(&p);
+        assert_eq!(q.get(ParamId::Ra), 2.5, "held at the fixed value");
+        assert_eq!(q.get(ParamId::Tc), 0.01, "clamped to its lower bound");
+        let (_, kv_hi) = spec.bounds[ParamId::Kv.index()];
+        assert_eq!(q.get(ParamId::Kv), kv_hi, "clamped to its upper bound");
+        // Within its bounds a free value stays; a parameter neither free nor fixed is held
+        // at the base's default.
+        assert_eq!(
+            spec.point(&p.with(ParamId::Tc, 0.02)).get(ParamId::Tc),
+            0.02
+        );
+        assert_eq!(q.get(ParamId::Ts), spec.base.get(ParamId::Ts));
     }
 }

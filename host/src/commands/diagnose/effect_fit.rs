@@ -189,30 +189,27 @@ pub fn fit_effect(
     effect: Effect,
     peaks: &Peaks,
 ) -> Result<Fit> {
-    // The spec's base holds the model to add the effect to, and the effect's fixed values.
+    // The spec's base holds the model to add the effect to, and the effect's fixed values;
+    // the angle effects start at the spectrum's amplitude and phase, where free (within
+    // their boxes: `ProblemSpec::point`; a fixed one keeps its value).
     let mut start = spec.base;
-    // A free parameter starts at `x` within its box (a fixed one keeps its value).
-    let mut start_at = |id: ParamId, x: f32| {
-        if spec.free[id.index()] {
-            let (lo, hi) = spec.bounds[id.index()];
-            start.set(id, x.clamp(lo, hi));
-        }
-    };
+    let phase = peaks.phase_of(effect).unwrap_or(0.0);
     match effect {
         Effect::TachoRipple => {
-            start_at(ParamId::RippleAmp, peaks.ripple.amp as f32);
-            start_at(ParamId::RipplePhase, peaks.phase_of(effect).unwrap_or(0.0));
+            start.set(ParamId::RippleAmp, peaks.ripple.amp as f32);
+            start.set(ParamId::RipplePhase, phase);
         }
         Effect::Cogging => {
             // The spectrum's amplitude of the speed ripple times J n is the detent torque
             // ([`Peaks::phase_of`]).
             let peak = &peaks.cogging;
             let torque = peak.amp * spec.base.get(ParamId::J) as f64 * peak.order as f64;
-            start_at(ParamId::CogAmp, torque as f32);
-            start_at(ParamId::CogPhase, peaks.phase_of(effect).unwrap_or(0.0));
+            start.set(ParamId::CogAmp, torque as f32);
+            start.set(ParamId::CogPhase, phase);
         }
         _ => {}
     }
+    let start = spec.point(&start);
     let alone = effects_alone(spec, &[effect], &start);
     let first = fit_basin_from(&data.train, opts, &alone, &start)?;
     refit_from(&data.train, opts, spec, &first.result.params)

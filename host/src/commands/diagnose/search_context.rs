@@ -161,10 +161,15 @@ mod tests {
     use crate::commands::diagnose::data::simulated;
     use motor_id_shared::ParamId;
 
+    /// A motor and one record of it, held out too: what a context's problems are built on.
+    fn one_record() -> (ModelParams, Data) {
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        (motor, simulated(&motor, &motor, (1, 1)))
+    }
+
     #[test]
     fn a_refitted_model_frees_its_effects_fitted_values_and_keeps_the_user_s_fixes() {
-        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let data = simulated(&motor, &motor, (1, 1));
+        let (motor, data) = one_record();
         // A start from a fit that holds static friction: its Coulomb part, break-away and
         // scale all away from their defaults.
         let start = motor
@@ -186,8 +191,7 @@ mod tests {
 
     #[test]
     fn a_refitted_ripple_keeps_the_order_its_fit_holds() {
-        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let data = simulated(&motor, &motor, (1, 1));
+        let (motor, data) = one_record();
         let mut cx = test_context(&data, &[], motor);
         // The baseline's residual peaked at 17 cycles; the ripple was fitted at 14.
         cx.peaks.ripple.order = 17;
@@ -210,8 +214,7 @@ mod tests {
         // `--fix ripple_cycles=1` (a once-per-revolution ripple) and `--fix tc=0` hold the
         // value they give, the defaults: judged by value, the residual's order (17) took
         // the ripple's place, and Coulomb friction was freed.
-        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let data = simulated(&motor, &motor, (1, 1));
+        let (motor, data) = one_record();
         let fix = [(ParamId::RippleCycles, 1.0), (ParamId::Tc, 0.0)];
         let mut cx = test_context(&data, &fix, motor);
         cx.peaks.ripple.order = 17;
@@ -238,8 +241,7 @@ mod tests {
     fn a_phase_s_box_is_a_turn_centred_on_the_spectrum_s_phase() {
         // The ripple's spectrum peaked at 4 rad: the phase is searched in 4 +- pi, whose
         // ends are the worst phases (a box from 0 drew a search to its bound at 0).
-        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let data = simulated(&motor, &motor, (1, 1));
+        let (motor, data) = one_record();
         let mut cx = test_context(&data, &[], motor);
         cx.peaks.ripple.phase = 4.0;
         let spec = cx.spec_of(&[Effect::TachoRipple], &motor).unwrap();

@@ -30,7 +30,7 @@ use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::model::effects::Effect;
-use motor_id_shared::{ModelParams, ParamId};
+use motor_id_shared::ModelParams;
 use serde::Serialize;
 use std::sync::OnceLock;
 
@@ -71,9 +71,9 @@ impl Restarted {
     }
 }
 
-/// What a candidate's fit tells the fits of the entries that extend it: its name, its
-/// parameters and its training objective (`None` for a fit that failed).
-type Published = Option<(&'static str, ModelParams, f32)>;
+/// What a candidate's fit tells the fits of the entries that extend it: its parameters and
+/// its training objective (`None` for a fit that failed).
+type Published = Option<(ModelParams, f32)>;
 
 /// Sets a candidate's [`Published`] slot to `None` when its fit ends without setting it (a
 /// panic), so that no extension waits for it forever.
@@ -108,31 +108,31 @@ pub(super) fn fitted_unstalled(
         let mine = fit
             .as_ref()
             .ok()
-            .map(|s| (effect.name(), s.fit.result.params, objective(&s.fit)));
+            .map(|s| (s.fit.result.params, objective(&s.fit)));
         let _ = published[k].set(mine);
         drop(unpublished);
         let fit = fit?;
         // The best nested model: the parent's fit beside it where that is better than the
         // model both are added to (only an earlier candidate's: one a later job fits could
         // wait on this one).
-        let parent = effect
-            .parent()
-            .and_then(|p| candidates[..k].iter().position(|e| *e == p))
-            .and_then(|j| published[j].wait().as_ref());
+        let parent = effect.parent().and_then(|p| {
+            let j = candidates[..k].iter().position(|e| *e == p)?;
+            published[j].wait().map(|fit| (p.name(), fit))
+        });
         let (from, nested, nested_objective) = match parent {
-            Some(&(name, params, o)) if o < objective(reference) => (name, params, o),
+            Some((name, (params, o))) if o < objective(reference) => (name, params, o),
             _ => (
                 "the model it is added to",
                 reference.result.params,
                 objective(reference),
             ),
         };
-        let Some(start) = nested_point(effect, &fit.fit.spec, &nested) else {
-            return Ok(fit);
-        };
         if WIDER_GAIN * objective(&fit.fit) <= nested_objective {
             return Ok(fit);
         }
+        let Some(start) = nested_point(effect, &fit.fit.spec, &nested) else {
+            return Ok(fit);
+        };
         say(format!(
             "{}'s refit stalled above {from}: searching it again from there",
             effect.name()
@@ -153,28 +153,17 @@ pub(super) fn fitted_unstalled(
     fits.into_iter().collect()
 }
 
-/// The nested model's parameters `nested` as a point of `effect`'s problem `spec`: its fixed
-/// values (the order a ripple is fitted at) the candidate's, its free ones within the
-/// candidate's box. `None` where the effect's switch (its first parameter, 0 for off) lies
+/// The nested model's parameters `nested` as a point of `effect`'s problem `spec`
+/// ([`ProblemSpec::point`]: its fixed values, the order a ripple is fitted at, the
+/// candidate's). `None` where the effect's switch (its first parameter, 0 for off) lies
 /// outside its box there (a current limit's `imax`, a winding's `rth`): the nested model is
 /// then no point of the candidate's problem, and no stall is proven by it.
 fn nested_point(effect: Effect, spec: &ProblemSpec, nested: &ModelParams) -> Option<ModelParams> {
-    let mut start = *nested;
-    for id in ParamId::ALL {
-        let x = match spec.free[id.index()] {
-            true => {
-                let (lo, hi) = spec.bounds[id.index()];
-                let x = start.get(id);
-                if effect.params().first() == Some(&id) && !(lo..=hi).contains(&x) {
-                    return None;
-                }
-                x.clamp(lo, hi)
-            }
-            false => spec.base.get(id),
-        };
-        start.set(id, x);
-    }
-    Some(start)
+    let outside = effect.params().first().is_some_and(|&id| {
+        let (lo, hi) = spec.bounds[id.index()];
+        spec.free[id.index()] && !(lo..=hi).contains(&nested.get(id))
+    });
+    (!outside).then(|| spec.point(nested))
 }
 
 /// The candidate `effect`'s stalled fit `scored` searched again from `start`, the fit of
@@ -242,6 +231,7 @@ mod tests {
     use crate::commands::diagnose::search_context::test_context;
     use crate::fit::tests::quiet;
     use motor_id_shared::fit::space::ProblemSpec;
+    use motor_id_shared::ParamId;
 
     #[test]
     fn a_refit_stalled_above_a_nested_model_is_searched_again_from_it() {
