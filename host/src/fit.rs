@@ -158,7 +158,8 @@ pub fn refit_from(
 
 /// Samples a widened search ([`widen_from`]) simulates per evaluation at most: the records
 /// are decimated to this many (the lab motor's 86,000 training samples by 9), so that the
-/// escalation's 4,100 evaluations cost about what 500 do on the records themselves.
+/// escalation's 4,100 evaluations cost about what 500 do on the records themselves. The
+/// diagnosis' search of an effect's basin reads them so too ([`searched_records`]).
 pub const WIDENED_SAMPLES: usize = 10_000;
 
 /// Widen the search of `spec` around its fit at `start`, which stays above its noise floor,

@@ -9,10 +9,10 @@
 //! significance rule would reject an effect for its search's fault: on the lab motor,
 //! static friction's refit stopped at a training misfit of 3.91 rad/s where Coulomb
 //! friction, nested in it, reaches 3.26. Such a refit is searched again from the nested
-//! model's fit in the escalation's order: first the short search of the effect's own
-//! parameters' basin that its fit ran from the model it was added to, on the training
-//! records decimated as the wider search reads them ([`searched_records`]), and least
-//! squares with everything free on every sample from its best; where that gains under 1 %
+//! model's fit in the escalation's order: first the two stages its fit ran from the model
+//! it was added to ([`in_two_stages`]: the short search of the effect's own parameters'
+//! basin, on the training records decimated as the wider search reads them, and least
+//! squares with everything free on every sample from its best); where that gains under 1 %
 //! on the nested model, the escalation's wider FFO as the final model's widening runs it
 //! ([`super::widening`], [`widen_from`]). The better fit of the stalled and the new one
 //! stands and is judged. A refit that ends below every nested model is not searched again:
@@ -20,11 +20,11 @@
 //! whole search (a stall is not provable there).
 
 use super::data::Scored;
-use super::effect_fit::effects_alone;
+use super::effect_fit::{effects_alone, in_two_stages, TwoStages};
 use super::parallel::in_parallel;
 use super::search_context::Context;
-use super::widening::seen_decimated;
-use crate::fit::{fit_basin_from, refit_from, searched_records, widen_from, Fit};
+use super::widening::decimation_keeps;
+use crate::fit::{widen_from, Fit};
 use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
@@ -180,23 +180,20 @@ fn restart(
     let alone = effects_alone(spec, &[effect], start);
     let data = cx.data;
     let opts = &cx.quiet;
-    // The escalation's order: first the short search of the effect's own basin (the one
-    // its fit ran from the model it was added to), on the records the wider search reads,
-    // and least squares on every sample from its best.
-    let decimate = seen_decimated(effect);
-    let coarse = searched_records(&data.train, decimate);
-    let (searched, decimation) = coarse
-        .as_ref()
-        .map_or((&data.train[..], 1), |(c, k)| (&c[..], *k));
-    let basin = fit_basin_from(searched, opts, &alone, start)?;
-    let mut evaluations = basin.result.evaluations;
-    let mut fit = refit_from(&data.train, opts, spec, &basin.result.params)?;
+    // The escalation's order: first the two stages its fit ran from the model it was added
+    // to (the short search of the effect's own basin, least squares on every sample).
+    let TwoStages {
+        mut fit,
+        basin_evaluations: mut evaluations,
+        decimation,
+    } = in_two_stages(data, opts, spec, &alone, start, effect)?;
     // Where that gains under 1 % on the nested model (the effect adds nothing to it, or its
     // search stalls again: the basin's search starts at the nested model, so it never
     // ends above it on records it does not decimate), the wider search, as the escalation
     // widens a fit before it blames the model.
     let wider = fit.result.cost.fitness() > WIDER_GAIN * nested_objective;
     if wider {
+        let decimate = decimation_keeps(effect, start);
         let wide = widen_from(&data.train, opts, &alone, spec, start, decimate)?;
         evaluations += wide.search_evaluations;
         if let Some(better) = wide
@@ -229,6 +226,7 @@ mod tests {
     use super::*;
     use crate::commands::diagnose::data::simulated;
     use crate::commands::diagnose::search_context::test_context;
+    use crate::fit::refit_from;
     use crate::fit::tests::quiet;
     use motor_id_shared::fit::space::ProblemSpec;
     use motor_id_shared::ParamId;

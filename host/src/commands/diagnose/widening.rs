@@ -25,6 +25,7 @@ use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
 use motor_id_shared::model::effects::Effect;
+use motor_id_shared::ModelParams;
 use serde::Serialize;
 
 /// What the widened search of the final model did (the verdict's `widened`).
@@ -91,6 +92,15 @@ pub(super) fn seen_decimated(effect: Effect) -> bool {
         effect,
         Effect::TachoRipple | Effect::Cogging | Effect::SensorDelay
     )
+}
+
+/// Whether the records may be decimated for a search of `effect` added to the model `at`:
+/// its form and that of every entry switched on in `at` survive it ([`seen_decimated`]).
+pub(super) fn decimation_keeps(effect: Effect, at: &ModelParams) -> bool {
+    let mut on = Effect::ALL
+        .into_iter()
+        .filter(|e| at.get(e.params()[0]) != 0.0);
+    seen_decimated(effect) && on.all(seen_decimated)
 }
 
 /// Whether the final model `fin` leaves the held-out records of `holdout` unexplained:
