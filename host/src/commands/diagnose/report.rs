@@ -139,6 +139,9 @@ pub struct NamedEffect {
     pub params: ByParam<Num>,
     /// Held-out speed RMSE of the model up to and with it [rad/s].
     pub holdout_rmse_after: Num,
+    /// Where its fit at the search's step stalled above a model nested in it and was
+    /// searched again from there (as an effect's of the first round).
+    pub restarted: Option<Restarted>,
 }
 
 /// The verdict on the current channel.
@@ -353,6 +356,7 @@ impl DiagnoseReport {
                     name: e.name(),
                     params: values(&s.fit.result.params, e.params()),
                     holdout_rmse_after: Num(s.holdout_rmse),
+                    restarted: s.restarted.clone(),
                 })
                 .collect(),
             params: reported_params(&after.fit.result, &after.fit.spec),

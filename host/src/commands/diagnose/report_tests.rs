@@ -16,23 +16,29 @@ fn effect(name: &'static str, holdout: f32, significant: bool) -> EffectFit {
     }
 }
 
+/// A refit stalled above Coulomb friction and searched again from there.
+fn stall() -> crate::commands::diagnose::stalled::Restarted {
+    crate::commands::diagnose::stalled::Restarted {
+        from: "coulomb_friction",
+        stalled: Num(3.9142),
+        nested: Num(3.2559),
+        refitted: Num(1.9601),
+        wider: false,
+        evaluations: 410,
+        decimation: 9,
+    }
+}
+
 /// `effect`, its refit stalled above Coulomb friction and searched again from there.
 fn restarted(e: EffectFit) -> EffectFit {
     EffectFit {
-        restarted: Some(crate::commands::diagnose::stalled::Restarted {
-            from: "coulomb_friction",
-            stalled: Num(3.9142),
-            nested: Num(3.2559),
-            refitted: Num(1.9601),
-            wider: false,
-            evaluations: 410,
-            decimation: 9,
-        }),
+        restarted: Some(stall()),
         ..e
     }
 }
 
-/// A report whose verdict is `tc = 0.1`, with `second` on top when given.
+/// A report whose verdict is `tc = 0.1`, with `second` on top when given (its fit at the
+/// forward step searched again, [`stall`]).
 fn report(second: Option<&'static str>) -> DiagnoseReport {
     DiagnoseReport {
         schema_version: crate::report::SCHEMA_VERSION,
@@ -74,6 +80,7 @@ fn report(second: Option<&'static str>) -> DiagnoseReport {
                     name,
                     params: ByParam(vec![(id, Num(value))]),
                     holdout_rmse_after: Num(after),
+                    restarted: (id == ParamId::Kq).then(stall),
                 })
                 .collect(),
             partial: vec![],
@@ -140,6 +147,8 @@ fn text_reads_the_report() {
             "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s with the effects \
              below (94 % of the misfit above noise removed), params {\"tc\":0.1}",
             "then: quadratic_load: holdout rmse -> 0.2600 rad/s",
+            "  its refit stalled above coulomb_friction (objective 3.9142 > 3.2559): searched \
+             again from there to 1.9601",
             "explained: the held-out misfit (0.3000 rad/s) is within 1.2 x the noise floor \
              (0.2500 rad/s)",
             "note: something",
@@ -210,6 +219,11 @@ fn json_has_the_contract_fields() {
     );
     let with = serde_json::to_value(report(Some("quadratic_load"))).unwrap();
     assert_eq!(with["verdict"]["second"]["effect_params"]["kq"], 4e-6);
+    // A named effect's fit searched again at its step says so, as the first round's.
+    let named = &with["verdict"]["effects"];
+    assert!(named[0]["restarted"].is_null());
+    assert_eq!(named[1]["restarted"]["from"], "coulomb_friction");
+    assert_eq!(named[1]["restarted"]["refitted"].as_f64(), Some(1.9601));
 }
 
 #[test]

@@ -54,6 +54,9 @@ impl DiagnoseReport {
                         then.name,
                         then.holdout_rmse_after.decimal()
                     );
+                    if let Some(r) = &then.restarted {
+                        s += &format!("  {}\n", r.line());
+                    }
                 }
             }
             _ if !v.partial.is_empty() => {
