@@ -12,6 +12,7 @@ use motor_id_shared::fit::identify::{
 use motor_id_shared::fit::space::ProblemSpec;
 use motor_id_shared::wire::protocol::PipelineName;
 use motor_id_shared::ModelParams;
+use std::borrow::Cow;
 use std::ops::ControlFlow;
 
 /// Options shared by the fitting commands.
@@ -182,11 +183,7 @@ pub fn widen_from(
     start: &ModelParams,
     decimate: bool,
 ) -> Result<Widened> {
-    let coarse = searched_records(records, decimate);
-    let (searched, k) = match &coarse {
-        Some((c, k)) => (&c[..], *k),
-        None => (records, 1),
-    };
+    let (searched, k) = searched_records(records, decimate);
     let pipeline = IdentifyConfig::default_pipeline(opts.seed);
     let Some((ffo, seed)) = pipeline.wider(0) else {
         bail!("the default pipeline has no wider search");
@@ -199,8 +196,8 @@ pub fn widen_from(
         profile_check: false,
         ..pipeline
     };
-    let local = refit_from(searched, opts, alone, start)?.result;
-    let wide = run_fit(searched, opts, alone, &cfg, Some(&local.params))?.result;
+    let local = refit_from(&searched, opts, alone, start)?.result;
+    let wide = run_fit(&searched, opts, alone, &cfg, Some(&local.params))?.result;
     let moved = wide.cost.fitness() < WIDER_GAIN * local.cost.fitness();
     let fit = match moved {
         true => Some(refit_from(records, opts, spec, &wide.params)?),
@@ -215,28 +212,29 @@ pub fn widen_from(
     })
 }
 
-/// The records a widened search runs on ([`widen_from`]): with `decimate`, `records`
-/// decimated to at most [`WIDENED_SAMPLES`] (as `--decimate` reads a file), with the rows
-/// per sample; a record that cannot be decimated (too short, a coast-down within one block)
-/// whole. `None` where none is decimated: the records themselves.
+/// The records a widened search runs on ([`widen_from`]), with the rows of a record per
+/// sample: with `decimate`, `records` decimated to at most [`WIDENED_SAMPLES`] (as
+/// `--decimate` reads a file), a record that cannot be decimated (too short, a coast-down
+/// within one block) whole; the records themselves, 1, where none is decimated.
 pub fn searched_records(
     records: &[OwnedRecord],
     decimate: bool,
-) -> Option<(Vec<OwnedRecord>, usize)> {
+) -> (Cow<'_, [OwnedRecord]>, usize) {
     let samples: usize = records.iter().map(|r| r.omega.len()).sum();
     let k = match decimate {
         true => samples.div_ceil(WIDENED_SAMPLES).max(1),
         false => 1,
     };
     if k == 1 {
-        return None;
+        return (Cow::Borrowed(records), 1);
     }
     let decimated: Vec<Option<OwnedRecord>> = records.iter().map(|r| r.decimated(k)).collect();
-    decimated.iter().any(Option::is_some).then(|| {
-        let pairs = decimated.into_iter().zip(records);
-        let coarse = pairs.map(|(d, r)| d.unwrap_or_else(|| r.clone())).collect();
-        (coarse, k)
-    })
+    if decimated.iter().all(Option::is_none) {
+        return (Cow::Borrowed(records), 1);
+    }
+    let pairs = decimated.into_iter().zip(records);
+    let coarse = pairs.map(|(d, r)| d.unwrap_or_else(|| r.clone())).collect();
+    (Cow::Owned(coarse), k)
 }
 
 /// A fit widened by [`widen_from`].

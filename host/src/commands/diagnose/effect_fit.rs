@@ -5,7 +5,7 @@
 use super::data::Data;
 use super::data::Trace;
 use super::spectrum::{order_fit, order_peak, OrderPeak, Shape};
-use super::widening::decimation_keeps;
+use super::widening::forms_survive_decimation;
 use crate::fit::{fit_basin_from, refit_from, searched_records, Fit, FitOptions};
 use crate::spec::FixSpec;
 use anyhow::{anyhow, Result};
@@ -213,12 +213,13 @@ pub fn fit_effect(
     }
     let start = spec.point(&start);
     let alone = effects_alone(spec, &[effect], &start);
-    Ok(in_two_stages(data, opts, spec, &alone, &start, effect)?.fit)
+    let decimate = forms_survive_decimation(&[effect], &start);
+    Ok(in_two_stages(data, opts, (spec, &alone), &start, decimate)?.fit)
 }
 
 /// An effect's fit from `start` in its two stages ([`fit_effect`], and a stalled refit's
 /// search again, [`super::stalled`]), with what the first one searched.
-pub struct TwoStages {
+pub(super) struct TwoStages {
     /// The refit with everything free on every sample.
     pub fit: Fit,
     /// Evaluations of the basin's search (on the records it searched).
@@ -227,26 +228,22 @@ pub struct TwoStages {
     pub decimation: usize,
 }
 
-/// The basin of `alone` (the parameters of `effect`, added to `spec`'s model, the rest
-/// held at `start`) searched from `start` on the training records as the widened search
-/// reads them ([`searched_records`]: decimated to at most
-/// [`crate::fit::WIDENED_SAMPLES`] samples when every form in the model survives it,
-/// [`decimation_keeps`]), then `spec` refitted by least squares on every sample from its
-/// best. The basin's search finds the basin, the refit on every sample converges in it:
-/// on the lab motor's 86,000 training samples the search reads a ninth of them.
-pub fn in_two_stages(
+/// The basin of `alone` (an effect's parameters, added to `spec`'s model, the rest held at
+/// `start`) searched from `start` on the training records as the widened search reads
+/// them ([`searched_records`]: with `decimate`, decimated to at most
+/// [`crate::fit::WIDENED_SAMPLES`] samples; [`forms_survive_decimation`] says when), then
+/// `spec` refitted by least squares on every sample from its best. The basin's search
+/// finds the basin, the refit on every sample converges in it: on the lab motor's 86,000
+/// training samples the search reads a ninth of them.
+pub(super) fn in_two_stages(
     data: &Data,
     opts: &FitOptions,
-    spec: &ProblemSpec,
-    alone: &ProblemSpec,
+    (spec, alone): (&ProblemSpec, &ProblemSpec),
     start: &ModelParams,
-    effect: Effect,
+    decimate: bool,
 ) -> Result<TwoStages> {
-    let coarse = searched_records(&data.train, decimation_keeps(effect, start));
-    let (searched, decimation) = coarse
-        .as_ref()
-        .map_or((&data.train[..], 1), |(c, k)| (&c[..], *k));
-    let basin = fit_basin_from(searched, opts, alone, start)?;
+    let (searched, decimation) = searched_records(&data.train, decimate);
+    let basin = fit_basin_from(&searched, opts, alone, start)?;
     let fit = refit_from(&data.train, opts, spec, &basin.result.params)?;
     Ok(TwoStages {
         fit,
@@ -327,7 +324,8 @@ mod tests {
             let model = crate::spec::problem(&[], &[]).unwrap();
             let spec = with_effect(&model, effect, at, (&scales, &peaks), &fixes).unwrap();
             let alone = effects_alone(&spec, &[effect], at);
-            in_two_stages(&data, &quiet(), &spec, &alone, at, effect).unwrap()
+            let decimate = forms_survive_decimation(&[effect], at);
+            in_two_stages(&data, &quiet(), (&spec, &alone), at, decimate).unwrap()
         };
         // Coulomb friction's basin on the records decimated by 2, its refit on every sample
         // converged there: within 2 % of the truth's own least squares, `tc` within 2 %.
@@ -339,13 +337,11 @@ mod tests {
         assert!(objective(&coulomb.fit) < 1.02 * objective(&at_truth));
         let tc = coulomb.fit.result.params.get(ParamId::Tc);
         assert!((tc - 0.05).abs() < 1e-3, "tc {tc}");
-        // Not where the effect's form or one in the model is lost by the means over blocks:
-        // a delay of a sample, or Coulomb friction added to a model with a tacho ripple.
-        assert_eq!(two_stages(&motor, Effect::SensorDelay).decimation, 1);
+        // Not where a form in the model is lost by the means over blocks: Coulomb friction
+        // added to a model with a tacho ripple.
         let rippled = motor
             .with(ParamId::RippleAmp, 0.01)
             .with(ParamId::RippleCycles, 8.0);
         assert_eq!(two_stages(&rippled, Effect::CoulombFriction).decimation, 1);
-        assert_eq!(two_stages(&motor, Effect::TachoRipple).decimation, 1);
     }
 }

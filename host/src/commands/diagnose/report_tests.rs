@@ -16,10 +16,10 @@ fn effect(name: &'static str, holdout: f32, significant: bool) -> EffectFit {
     }
 }
 
-/// A refit stalled above Coulomb friction and searched again from there.
-fn stall() -> crate::commands::diagnose::stalled::Restarted {
+/// A refit stalled above the model `from` nested in it and searched again from there.
+fn stall(from: &'static str) -> crate::commands::diagnose::stalled::Restarted {
     crate::commands::diagnose::stalled::Restarted {
-        from: "coulomb_friction",
+        from,
         stalled: Num(3.9142),
         nested: Num(3.2559),
         refitted: Num(1.9601),
@@ -32,13 +32,13 @@ fn stall() -> crate::commands::diagnose::stalled::Restarted {
 /// `effect`, its refit stalled above Coulomb friction and searched again from there.
 fn restarted(e: EffectFit) -> EffectFit {
     EffectFit {
-        restarted: Some(stall()),
+        restarted: Some(stall("coulomb_friction")),
         ..e
     }
 }
 
 /// A report whose verdict is `tc = 0.1`, with `second` on top when given (its fit at the
-/// forward step searched again, [`stall`]).
+/// forward step stalled above the model it was added to, [`stall`]).
 fn report(second: Option<&'static str>) -> DiagnoseReport {
     DiagnoseReport {
         schema_version: crate::report::SCHEMA_VERSION,
@@ -76,11 +76,12 @@ fn report(second: Option<&'static str>) -> DiagnoseReport {
             },
             effects: std::iter::once(("coulomb_friction", ParamId::Tc, 0.1, 0.3))
                 .chain(second.map(|e| (e, ParamId::Kq, 4e-6, 0.26)))
-                .map(|(name, id, value, after)| NamedEffect {
+                .enumerate()
+                .map(|(step, (name, id, value, after))| NamedEffect {
                     name,
                     params: ByParam(vec![(id, Num(value))]),
                     holdout_rmse_after: Num(after),
-                    restarted: (id == ParamId::Kq).then(stall),
+                    restarted: (step == 1).then(|| stall("the model it is added to")),
                 })
                 .collect(),
             partial: vec![],
@@ -147,8 +148,8 @@ fn text_reads_the_report() {
             "verdict: coulomb_friction: holdout rmse 0.7000 -> 0.3000 rad/s with the effects \
              below (94 % of the misfit above noise removed), params {\"tc\":0.1}",
             "then: quadratic_load: holdout rmse -> 0.2600 rad/s",
-            "  its refit stalled above coulomb_friction (objective 3.9142 > 3.2559): searched \
-             again from there to 1.9601",
+            "  its refit stalled above the model it is added to (objective 3.9142 > 3.2559): \
+             searched again from there to 1.9601",
             "explained: the held-out misfit (0.3000 rad/s) is within 1.2 x the noise floor \
              (0.2500 rad/s)",
             "note: something",
@@ -222,7 +223,7 @@ fn json_has_the_contract_fields() {
     // A named effect's fit searched again at its step says so, as the first round's.
     let named = &with["verdict"]["effects"];
     assert!(named[0]["restarted"].is_null());
-    assert_eq!(named[1]["restarted"]["from"], "coulomb_friction");
+    assert_eq!(named[1]["restarted"]["from"], "the model it is added to");
     assert_eq!(named[1]["restarted"]["refitted"].as_f64(), Some(1.9601));
 }
 

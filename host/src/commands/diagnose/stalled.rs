@@ -23,7 +23,7 @@ use super::data::Scored;
 use super::effect_fit::{effects_alone, in_two_stages, TwoStages};
 use super::parallel::in_parallel;
 use super::search_context::Context;
-use super::widening::decimation_keeps;
+use super::widening::forms_survive_decimation;
 use crate::fit::{widen_from, Fit};
 use crate::report::Num;
 use anyhow::Result;
@@ -182,18 +182,18 @@ fn restart(
     let opts = &cx.quiet;
     // The escalation's order: first the two stages its fit ran from the model it was added
     // to (the short search of the effect's own basin, least squares on every sample).
+    let decimate = forms_survive_decimation(&[effect], start);
     let TwoStages {
         mut fit,
         basin_evaluations: mut evaluations,
         decimation,
-    } = in_two_stages(data, opts, spec, &alone, start, effect)?;
+    } = in_two_stages(data, opts, (spec, &alone), start, decimate)?;
     // Where that gains under 1 % on the nested model (the effect adds nothing to it, or its
     // search stalls again: the basin's search starts at the nested model, so it never
     // ends above it on records it does not decimate), the wider search, as the escalation
     // widens a fit before it blames the model.
     let wider = fit.result.cost.fitness() > WIDER_GAIN * nested_objective;
     if wider {
-        let decimate = decimation_keeps(effect, start);
         let wide = widen_from(&data.train, opts, &alone, spec, start, decimate)?;
         evaluations += wide.search_evaluations;
         if let Some(better) = wide

@@ -24,7 +24,7 @@ use crate::fit::{widen_from, FitOptions};
 use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
-use motor_id_shared::model::effects::Effect;
+use motor_id_shared::model::effects::{Effect, SWITCHES};
 use motor_id_shared::ModelParams;
 use serde::Serialize;
 
@@ -94,13 +94,14 @@ pub(super) fn seen_decimated(effect: Effect) -> bool {
     )
 }
 
-/// Whether the records may be decimated for a search of `effect` added to the model `at`:
-/// its form and that of every entry switched on in `at` survive it ([`seen_decimated`]).
-pub(super) fn decimation_keeps(effect: Effect, at: &ModelParams) -> bool {
+/// Whether a search of `effects` in the model `at` may read the records decimated: their
+/// forms and that of every entry switched on in `at` (its switch non-zero, as the
+/// simulator reads it: a user's fixed ripple too) survive it ([`seen_decimated`]).
+pub(super) fn forms_survive_decimation(effects: &[Effect], at: &ModelParams) -> bool {
     let mut on = Effect::ALL
         .into_iter()
-        .filter(|e| at.get(e.params()[0]) != 0.0);
-    seen_decimated(effect) && on.all(seen_decimated)
+        .filter(|e| at.get(SWITCHES[*e as usize]) != 0.0);
+    effects.iter().all(|e| seen_decimated(*e)) && on.all(seen_decimated)
 }
 
 /// Whether the final model `fin` leaves the held-out records of `holdout` unexplained:
@@ -158,7 +159,7 @@ fn widen(
     let before = &last.fit.result;
     let spec = &last.fit.spec;
     let alone = effects_alone(spec, named, &before.params);
-    let decimate = named.iter().all(|e| seen_decimated(*e));
+    let decimate = forms_survive_decimation(named, &before.params);
     let widened = widen_from(&data.train, opts, &alone, spec, &before.params, decimate)?;
     let after = widened.fit.as_ref().map(|f| f.result.cost);
     let taken = after.is_some_and(|a| a.fitness() < WIDER_GAIN * before.cost.fitness());
@@ -207,6 +208,30 @@ mod tests {
             signal_rms: data.holdout_rms(),
             current_noise: data.holdout_current_noise().unwrap(),
         }
+    }
+
+    #[test]
+    fn records_are_decimated_only_where_every_form_in_the_model_survives_it() {
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        let survive = forms_survive_decimation;
+        assert!(survive(&[Effect::CoulombFriction], &motor));
+        assert!(survive(
+            &[Effect::WindingHeating, Effect::CurrentLimit],
+            &motor
+        ));
+        // A form a block's mean hides, searched or in the model (its switch on).
+        assert!(!survive(&[Effect::SensorDelay], &motor));
+        assert!(!survive(
+            &[Effect::CoulombFriction, Effect::Cogging],
+            &motor
+        ));
+        let rippled = motor.with(ParamId::RippleAmp, 0.01);
+        assert!(!survive(&[Effect::CoulombFriction], &rippled));
+        assert!(!survive(&[], &motor.with(ParamId::Td, 1e-4)));
+        // A ripple's order alone does not switch it on (its first parameter does).
+        let order_only = motor.with(ParamId::RippleCycles, 8.0);
+        assert!(survive(&[Effect::CoulombFriction], &order_only));
+        assert!(survive(&[], &motor.with(ParamId::Tc, 0.05)));
     }
 
     #[test]
