@@ -3,7 +3,9 @@
 //! pair of them and none, at 2, 5 and 10 kHz, speed read by an encoder (a case with a tacho
 //! ripple or a delay by a quiet tacho, `blind::tacho_noise`); each case's motor and effect
 //! sizes drawn from its seed (`tests/src/blind.rs`). Counts how often the effects
-//! named are exactly the true ones, the false effects on null records and the noise estimate
+//! named are exactly the true ones, the names of effects the plant does not hold (the
+//! Coulomb friction that static and asymmetric friction come with is held: naming it alone
+//! is a miss, not a false name), the false effects on null records and the noise estimate
 //! against the truth.
 //!
 //! `cargo run --release -p motor-id-tests --example blind_check -- [SEEDS] [RATES] [CASES]`
@@ -98,12 +100,19 @@ fn main() {
         "| case | rate | named right | a name not true | unexplained | noise est / truth | s per case |"
     );
     println!("|---|---|---|---|---|---|---|");
-    let (mut right_all, mut total, mut false_on_null) = (0, 0, 0);
+    let (mut right_all, mut total, mut false_on_null, mut forced_all) = (0, 0, 0, 0);
     let mut noise_bad = 0;
     for case in &cases {
         let expected: BTreeSet<String> = case
             .iter()
             .filter_map(|x| entry(x).map(str::to_string))
+            .collect();
+        // What the plant holds: static and asymmetric friction come with their Coulomb
+        // friction, so naming it is a miss (their own part not named), not a false name.
+        let held: BTreeSet<String> = case
+            .iter()
+            .flat_map(|x| components(x))
+            .map(str::to_string)
             .collect();
         for &rate in &rates {
             let (mut right, mut forced, mut unexplained, mut secs) = (0, 0, 0, 0.0);
@@ -129,8 +138,8 @@ fn main() {
                     o.seconds
                 );
                 right += usize::from(ok);
-                // A catalogue name the truth does not hold (a stand-in named as a cause).
-                forced += usize::from(!o.named.is_subset(&expected));
+                // A catalogue name the plant does not hold (a stand-in named as a cause).
+                forced += usize::from(!o.named.is_subset(&held));
                 unexplained += usize::from(o.unexplained);
                 if case.is_empty() && !o.named.is_empty() {
                     false_on_null += 1;
@@ -141,6 +150,7 @@ fn main() {
                 secs += o.seconds;
             }
             right_all += right;
+            forced_all += forced;
             total += n_seeds;
             println!(
                 "| {} | {} kHz | {right}/{n_seeds} | {forced} | {unexplained} | {lo:.2}-{hi:.2} | {:.1} |",
@@ -151,8 +161,9 @@ fn main() {
         }
     }
     println!(
-        "\nnamed right: {right_all}/{total} ({:.1} %); false effects on null records: {false_on_null}; \
-         noise estimate off by more than 20 %: {noise_bad}/{total}",
+        "\nnamed right: {right_all}/{total} ({:.1} %); a name not true: {forced_all}/{total}; \
+         false effects on null records: {false_on_null}; noise estimate off by more than 20 %: \
+         {noise_bad}/{total}",
         100.0 * right_all as f64 / total as f64
     );
 }
