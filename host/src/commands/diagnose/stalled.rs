@@ -29,7 +29,7 @@ use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
 use motor_id_shared::fit::space::ProblemSpec;
-use motor_id_shared::model::effects::Effect;
+use motor_id_shared::model::effects::{Effect, SWITCHES};
 use motor_id_shared::ModelParams;
 use serde::Serialize;
 use std::sync::OnceLock;
@@ -159,10 +159,9 @@ pub(super) fn fitted_unstalled(
 /// outside its box there (a current limit's `imax`, a winding's `rth`): the nested model is
 /// then no point of the candidate's problem, and no stall is proven by it.
 fn nested_point(effect: Effect, spec: &ProblemSpec, nested: &ModelParams) -> Option<ModelParams> {
-    let outside = effect.params().first().is_some_and(|&id| {
-        let (lo, hi) = spec.bounds[id.index()];
-        spec.free[id.index()] && !(lo..=hi).contains(&nested.get(id))
-    });
+    let switch = SWITCHES[effect as usize];
+    let (lo, hi) = spec.bounds[switch.index()];
+    let outside = spec.free[switch.index()] && !(lo..=hi).contains(&nested.get(switch));
     (!outside).then(|| spec.point(nested))
 }
 
