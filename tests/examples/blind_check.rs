@@ -20,11 +20,13 @@
 //! alone with that entry left out of the search (`--without`): what is named for it (only a
 //! part of the truth may be: the Coulomb friction of static friction), whether the verdict
 //! says unexplained, the partial stand-ins and where the remainder lies.
-//! A case missed is diagnosed again with the catalogue held to the truth's own entries
-//! (`blind::all_but_the_truth`): named right then, the records show the truth and the whole
-//! search did not tell it apart; not named even then, the naming rule finds no evidence for
-//! it in these records. The summary counts both and the share named right of the cases whose
-//! records show the truth by that search (a case named right counts as shown).
+//! A case with effects to name that is missed is diagnosed again with the catalogue held to
+//! the truth's own entries (`blind::all_but_the_truth`): named right then, the records show
+//! the truth and the whole catalogue's search lost it to an entry the plant does not hold;
+//! not named even then, the naming rule does not name it even among the truth's own
+//! entries. The summary counts both and the share named right of the cases whose records
+//! show the truth by that search (a case named right counts as shown; a miss with nothing
+//! to name, a name on a null or withheld-only record, is not searched again).
 //! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
 //! verdict, `BLIND_KEEP=DIR` keeps each case's records and report in `DIR`, `BLIND_TACHO=S`
 //! reads every case's speed with a tacho of white noise `S` rad/s.
@@ -32,8 +34,8 @@
 //! `target/release/motor-id` (a copy keeps an hour-long run apart from rebuilds).
 
 use motor_id_tests::blind::{
-    all_but_the_truth, check_without, components, entry, label, tacho_noise, OLDER, SINGLES,
-    WITHHELD,
+    all_but_the_truth, check_without, components, entry, entry_cases, label, tacho_noise, OLDER,
+    SINGLES, WITHHELD,
 };
 use motor_id_tests::partial_stand_ins;
 use std::collections::BTreeSet;
@@ -109,7 +111,7 @@ fn main() {
     let (mut right_all, mut total, mut false_on_null, mut forced_all) = (0, 0, 0, 0);
     let mut noise_bad = 0;
     // Misses named right by a search of the truth's entries alone, and the others.
-    let (mut told_apart_not, mut not_shown) = (0, 0);
+    let (mut named_alone, mut not_shown) = (0, 0);
     for case in &cases {
         let expected: BTreeSet<String> = case
             .iter()
@@ -137,9 +139,11 @@ fn main() {
                 let o = check_without(at, case, rate, seed, &[], tacho_noise(case));
                 let ok = o.named == expected;
                 // A miss searched again with only the truth's entries in the catalogue:
-                // does the naming rule find them in these records at all?
+                // does the naming rule find them in these records at all? (A kept folder's
+                // search alone of an earlier run goes first.)
+                let at = at.join("alone");
+                let _ = std::fs::remove_dir_all(&at);
                 let alone = (!ok && !expected.is_empty()).then(|| {
-                    let at = at.join("alone");
                     std::fs::create_dir_all(&at).expect("folder of the search alone");
                     let without = all_but_the_truth(case);
                     check_without(&at, case, rate, seed, &without, tacho_noise(case)).named
@@ -154,12 +158,12 @@ fn main() {
                     o.seconds,
                     alone.as_ref().map_or(String::new(), |a| format!(
                         "; the truth's entries alone: named {a:?}{}",
-                        if *a == expected { "" } else { " (not shown)" }
+                        if *a == expected { "" } else { " (not named alone either)" }
                     ))
                 );
                 right += usize::from(ok);
                 match alone {
-                    Some(a) if a == expected => told_apart_not += 1,
+                    Some(a) if a == expected => named_alone += 1,
                     Some(_) => not_shown += 1,
                     None => {}
                 }
@@ -192,10 +196,12 @@ fn main() {
         100.0 * right_all as f64 / total as f64
     );
     let shown = total - not_shown;
+    let missed = total - right_all;
     println!(
-        "misses the truth's entries alone name right: {told_apart_not}; not named even so: \
-         {not_shown}; named right where the records show the truth by that search: \
-         {right_all}/{shown} ({:.1} %)",
+        "misses: {missed}; the truth's entries alone name right: {named_alone}; not named \
+         even so: {not_shown}; nothing to name, not searched again: {}; named right where the \
+         records show the truth by that search: {right_all}/{shown} ({:.1} %)",
+        missed - named_alone - not_shown,
         100.0 * right_all as f64 / shown.max(1) as f64
     );
 }
@@ -203,9 +209,7 @@ fn main() {
 /// The table of each entry left out (`--without`): its effect alone in the plant.
 fn left_out(seeds: RangeInclusive<u64>, rates: &[f64], pick: Option<&str>) {
     let n_seeds = seeds.clone().count();
-    let mut effects: Vec<&str> = OLDER.to_vec();
-    effects.extend(SINGLES);
-    effects.push("delay");
+    let mut effects = entry_cases();
     if let Some(pick) = pick {
         let wanted: Vec<&str> = pick.split(',').collect();
         effects.retain(|e| wanted.contains(e));

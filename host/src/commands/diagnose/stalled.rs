@@ -231,6 +231,26 @@ mod tests {
     use motor_id_shared::ParamId;
 
     #[test]
+    fn a_fit_that_panics_publishes_none_so_that_no_extension_waits_for_it() {
+        let slot: OnceLock<Published> = OnceLock::new();
+        let ended = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let _unpublished = Unpublished(&slot);
+            panic!("a candidate's fit panics before it publishes");
+        }));
+        assert!(ended.is_err());
+        assert!(matches!(slot.get(), Some(None)), "{:?}", slot.get());
+        // A fit that published keeps what it published.
+        let slot: OnceLock<Published> = OnceLock::new();
+        let unpublished = Unpublished(&slot);
+        let _ = slot.set(Some((
+            ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08),
+            2.5,
+        )));
+        drop(unpublished);
+        assert!(matches!(slot.get(), Some(Some((_, o))) if *o == 2.5));
+    }
+
+    #[test]
     fn a_refit_stalled_above_a_nested_model_is_searched_again_from_it() {
         // A motor with Coulomb friction: static friction, which extends it, and a fan load
         // are tried beside it. Each candidate's fit ended at a poor point of its problem
