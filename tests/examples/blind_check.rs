@@ -20,11 +20,11 @@
 //! alone with that entry left out of the search (`--without`): what is named for it (only a
 //! part of the truth may be: the Coulomb friction of static friction), whether the verdict
 //! says unexplained, the partial stand-ins and where the remainder lies.
-//! A case with effects to name that is missed is diagnosed again with the catalogue held to
-//! the truth's own entries (`blind::all_but_the_truth`): named right then, the records show
-//! the truth and the whole catalogue's search lost it to an entry the plant does not hold;
-//! not named even then, the naming rule does not name it even among the truth's own
-//! entries. The summary counts both and the share named right of the cases whose records
+//! A case with effects to name that is missed is diagnosed again on its records with the
+//! catalogue held to the truth's own entries (`blind::all_but_the_truth`): named right
+//! then, the records show the truth and the whole catalogue's search lost it to an entry
+//! the plant does not hold; not named even then, the naming rule does not name it even
+//! among the truth's own entries. The summary counts both and the share named right of the cases whose records
 //! show the truth by that search (a case named right counts as shown; a miss with nothing
 //! to name, a name on a null or withheld-only record, is not searched again).
 //! One line per case on stderr, a summary table on stdout. `BLIND_VERBOSE=1` prints each
@@ -34,8 +34,8 @@
 //! `target/release/motor-id` (a copy keeps an hour-long run apart from rebuilds).
 
 use motor_id_tests::blind::{
-    all_but_the_truth, check_without, components, entry, entry_cases, label, tacho_noise, OLDER,
-    SINGLES, WITHHELD,
+    all_but_the_truth, check_without, components, entry, entry_cases, label, simulate, tacho_noise,
+    OLDER, SINGLES, WITHHELD,
 };
 use motor_id_tests::partial_stand_ins;
 use std::collections::BTreeSet;
@@ -136,17 +136,17 @@ fn main() {
                     d
                 });
                 let at = kept.as_deref().unwrap_or(dir.path());
-                let o = check_without(at, case, rate, seed, &[], tacho_noise(case));
+                let records = simulate(at, case, rate, seed, tacho_noise(case));
+                let o = records.diagnose(case, &[], at);
                 let ok = o.named == expected;
-                // A miss searched again with only the truth's entries in the catalogue:
-                // does the naming rule find them in these records at all? (A kept folder's
-                // search alone of an earlier run goes first.)
+                // A miss searched again on the same records with only the truth's entries
+                // in the catalogue: does the naming rule find them at all? (A kept folder's
+                // report of an earlier run's search alone goes first.)
                 let at = at.join("alone");
                 let _ = std::fs::remove_dir_all(&at);
                 let alone = (!ok && !expected.is_empty()).then(|| {
                     std::fs::create_dir_all(&at).expect("folder of the search alone");
-                    let without = all_but_the_truth(case);
-                    check_without(&at, case, rate, seed, &without, tacho_noise(case)).named
+                    records.diagnose(case, &all_but_the_truth(case), &at).named
                 });
                 eprintln!(
                     "{} @ {rate} Hz seed {seed}: named {:?}{} unexplained {} noise x{:.2} ({:.1} s){}",

@@ -10,7 +10,7 @@ use crate::reference_plant::{
 use crate::{diagnose, named_effects};
 use serde_json::Value;
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Supply voltage [V].
@@ -267,6 +267,22 @@ pub fn check_without(
     without: &[&str],
     tacho: Option<f64>,
 ) -> Outcome {
+    simulate(dir, names, rate, seed, tacho).diagnose(names, without, dir)
+}
+
+/// A case's records, simulated by [`simulate`].
+pub struct Simulated {
+    /// The records: three to train on, two held out.
+    paths: Vec<PathBuf>,
+    /// The true effects.
+    truth: Effects,
+    /// The held-out speed reading's true noise [rad/s].
+    noise: f64,
+}
+
+/// The records of case `names` at `rate` and `seed` in `dir`, the speed read by a tacho of
+/// white noise `tacho` [rad/s] (`None`: the encoder): see [`check`].
+pub fn simulate(dir: &Path, names: &[&str], rate: f64, seed: u64, tacho: Option<f64>) -> Simulated {
     let mut g = Gaussian::new(seed * 7919 + rate as u64);
     let m = motor(&mut g);
     let mut e = effects(names, &m, rate, &mut g);
@@ -310,37 +326,50 @@ pub fn check_without(
         csv::write(&r, &path, true);
         paths.push(path);
     }
-    let start = Instant::now();
-    // The cogging case is told the detents per revolution (12, as a datasheet gives them).
-    let mut told: Vec<&str> = match names.contains(&"cogging") {
-        true => vec!["--fix", "cog_cycles=12"],
-        false => vec![],
-    };
-    let left_out = without.join(",");
-    if !without.is_empty() {
-        told.extend(["--without", &left_out]);
-    }
-    let (report, _) = diagnose(&paths[..3], &paths[3..], &told, &dir.join("diag.json"));
-    let seconds = start.elapsed().as_secs_f64();
-    let v: Value = report["verdict"].clone();
-    if std::env::var_os("BLIND_VERBOSE").is_some() {
-        eprintln!("truth {e:?}\nverdict {v:#}");
-    }
-    let named = named_effects(&v).into_iter().collect();
     // Pooled over the held-out samples, as the estimate is (records of unequal lengths).
     let (sum, count) = noise
         .iter()
         .fold((0.0, 0.0), |(s, c), (rms, n)| (s + n * rms * rms, c + n));
     // A tacho's reading error holds its ripple and delay, which are effects, not noise:
     // there the noise floor's truth is the tacho's white noise.
-    let truth = tacho.unwrap_or((sum / count).sqrt());
-    Outcome {
-        named,
-        unexplained: v["unexplained"].as_bool().expect("verdict.unexplained"),
-        noise_ratio: v["holdout_noise"].as_f64().expect("verdict.holdout_noise") / truth,
-        seconds,
+    let noise = tacho.unwrap_or((sum / count).sqrt());
+    Simulated {
+        paths,
         truth: e,
-        verdict: v,
+        noise,
+    }
+}
+
+impl Simulated {
+    /// The diagnosis of these records of case `names` with the catalogue entries `without`
+    /// left out of its search (`--without`), its report written in `dir`.
+    pub fn diagnose(&self, names: &[&str], without: &[&str], dir: &Path) -> Outcome {
+        let start = Instant::now();
+        // The cogging case is told the detents per revolution (12, as a datasheet gives them).
+        let mut told: Vec<&str> = match names.contains(&"cogging") {
+            true => vec!["--fix", "cog_cycles=12"],
+            false => vec![],
+        };
+        let left_out = without.join(",");
+        if !without.is_empty() {
+            told.extend(["--without", &left_out]);
+        }
+        let paths = &self.paths;
+        let (report, _) = diagnose(&paths[..3], &paths[3..], &told, &dir.join("diag.json"));
+        let seconds = start.elapsed().as_secs_f64();
+        let v: Value = report["verdict"].clone();
+        if std::env::var_os("BLIND_VERBOSE").is_some() {
+            eprintln!("truth {:?}\nverdict {v:#}", self.truth);
+        }
+        let named = named_effects(&v).into_iter().collect();
+        Outcome {
+            named,
+            unexplained: v["unexplained"].as_bool().expect("verdict.unexplained"),
+            noise_ratio: v["holdout_noise"].as_f64().expect("verdict.holdout_noise") / self.noise,
+            seconds,
+            truth: self.truth,
+            verdict: v,
+        }
     }
 }
 
