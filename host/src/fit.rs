@@ -102,7 +102,7 @@ pub fn fit_quick(records: &[OwnedRecord], opts: &FitOptions) -> Result<Fit> {
 }
 
 /// Identify `spec` from loaded records with the default pipeline without its escalation:
-/// the fit [`fit_spec`]'s escalation starts from (the same result where it does not move it).
+/// the diagnosis' baseline, which it widens as it widens its final model ([`widen_from`]).
 pub fn fit_spec_unwidened(
     records: &[OwnedRecord],
     opts: &FitOptions,
@@ -113,17 +113,6 @@ pub fn fit_spec_unwidened(
         ..IdentifyConfig::default_pipeline(opts.seed)
     };
     run_fit(records, opts, spec, &cfg, None)
-}
-
-/// Identify `spec` from loaded records with the default pipeline and its escalation.
-pub fn fit_spec(records: &[OwnedRecord], opts: &FitOptions, spec: &ProblemSpec) -> Result<Fit> {
-    run_fit(
-        records,
-        opts,
-        spec,
-        &IdentifyConfig::default_pipeline(opts.seed),
-        None,
-    )
 }
 
 /// Search the basin of `spec`'s few free parameters from `initial`
@@ -157,6 +146,27 @@ pub fn refit_from(
     run_fit(records, opts, spec, &cfg, Some(start))
 }
 
+/// [`refit_from`] with the profile check of a base fit (its uncertainties checked along
+/// the valley where it has a flat direction): a refit whose pinned parameters are reported,
+/// as the diagnosis' baseline's are.
+pub fn refit_checked_from(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    start: &ModelParams,
+) -> Result<Fit> {
+    run_fit(
+        records,
+        opts,
+        spec,
+        &IdentifyConfig::local(opts.seed),
+        Some(start),
+    )
+}
+
+/// A refit by least squares from a start ([`refit_from`], [`refit_checked_from`]).
+pub type Refit = fn(&[OwnedRecord], &FitOptions, &ProblemSpec, &ModelParams) -> Result<Fit>;
+
 /// Samples a widened search ([`widen_from`]) simulates per evaluation at most: the records
 /// are decimated to this many (the lab motor's 86,000 training samples by 9), so that the
 /// escalation's 4,100 evaluations cost about what 500 do on the records themselves. The
@@ -167,10 +177,10 @@ pub const WIDENED_SAMPLES: usize = 10_000;
 /// as the pipeline's escalation widens the base fit (its first wider FFO,
 /// `IdentifyConfig::wider`) over the parameters `alone` frees (an effect's own, the rest
 /// held at `start`: the box of the motor's parameters is far wider than their basin, known
-/// already). The search starts from `start`'s own optimum on the records it searches
+/// already; for the diagnosis' baseline, everything `spec` frees). The search starts from `start`'s own optimum on the records it searches
 /// (least squares over the same parameters): where it ends no better than that by 1 %
 /// (the escalation's rule) the fit stands, and nothing more is done; otherwise `spec` is
-/// refitted by least squares on `records` from its best ([`refit_from`]). With `decimate`,
+/// refitted by least squares on `records` from its best (by `refit`). With `decimate`,
 /// the search runs on the records decimated to at most [`WIDENED_SAMPLES`] (as `--decimate`
 /// reads a file: readings averaged over each block, the input's voltage-seconds kept): it
 /// finds the basin, the refit on every sample converges in it. A record that cannot be
@@ -182,6 +192,7 @@ pub fn widen_from(
     spec: &ProblemSpec,
     start: &ModelParams,
     decimate: bool,
+    refit: Refit,
 ) -> Result<Widened> {
     let (searched, k) = searched_records(records, decimate);
     let pipeline = IdentifyConfig::default_pipeline(opts.seed);
@@ -200,7 +211,7 @@ pub fn widen_from(
     let wide = run_fit(&searched, opts, alone, &cfg, Some(&local.params))?.result;
     let moved = wide.cost.fitness() < WIDER_GAIN * local.cost.fitness();
     let fit = match moved {
-        true => Some(refit_from(records, opts, spec, &wide.params)?),
+        true => Some(refit(records, opts, spec, &wide.params)?),
         false => None,
     };
     Ok(Widened {

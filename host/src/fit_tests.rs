@@ -103,7 +103,7 @@ fn widened_past_a_stall(
         stalled > stall * at_truth,
         "least squares alone should stall: {stalled} against {at_truth}"
     );
-    let widened = widen_from(records, &quiet(), alone, spec, start, decimate).unwrap();
+    let widened = widen_from(records, &quiet(), alone, spec, start, decimate, refit_from).unwrap();
     assert_eq!(widened.decimation, decimation);
     let found = widened.fit.expect("the search gained: refitted").result;
     let reached = misfit(&found.cost);

@@ -213,7 +213,7 @@ pub fn drifts(data: &Data, final_fit: &Fit, opts: &FitOptions) -> Result<Vec<Dri
 mod tests {
     use super::*;
     use crate::commands::diagnose::data::record;
-    use crate::fit::fit_spec;
+    use crate::fit::fit_spec_unwidened;
     use crate::fit::tests::{noise, square_wave};
     use motor_id_shared::model::sim::{InitialState, Simulator};
 
@@ -261,7 +261,7 @@ mod tests {
             with_current: true,
         };
         let spec = motor_id_shared::fit::space::ProblemSpec::default();
-        let fit = fit_spec(&data.train, &opts, &spec).unwrap();
+        let fit = fit_spec_unwidened(&data.train, &opts, &spec).unwrap();
         drifts(&data, &fit, &opts).unwrap()
     }
 

@@ -24,7 +24,7 @@ use super::effect_fit::{effects_alone, in_two_stages, TwoStages};
 use super::parallel::in_parallel;
 use super::search_context::Context;
 use super::widening::forms_survive_decimation;
-use crate::fit::{widen_from, Fit};
+use crate::fit::{refit_from, widen_from, Fit};
 use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
@@ -193,7 +193,7 @@ fn restart(
     // widens a fit before it blames the model.
     let wider = fit.result.cost.fitness() > WIDER_GAIN * nested_objective;
     if wider {
-        let wide = widen_from(&data.train, opts, &alone, spec, start, decimate)?;
+        let wide = widen_from(&data.train, opts, &alone, spec, start, decimate, refit_from)?;
         evaluations += wide.search_evaluations;
         if let Some(better) = wide
             .fit

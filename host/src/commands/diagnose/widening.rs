@@ -20,7 +20,7 @@ use super::data::{Data, Scored};
 use super::effect_fit::effects_alone;
 use super::remainder::{floor, unexplained};
 use super::verdict::Holdout;
-use crate::fit::{widen_from, FitOptions};
+use crate::fit::{refit_from, widen_from, FitOptions};
 use crate::report::Num;
 use anyhow::Result;
 use motor_id_shared::fit::identify::WIDER_GAIN;
@@ -164,7 +164,15 @@ fn widen(
     let spec = &last.fit.spec;
     let alone = effects_alone(spec, named, &before.params);
     let decimate = forms_survive_decimation(named, &before.params);
-    let widened = widen_from(&data.train, opts, &alone, spec, &before.params, decimate)?;
+    let widened = widen_from(
+        &data.train,
+        opts,
+        &alone,
+        spec,
+        &before.params,
+        decimate,
+        refit_from,
+    )?;
     let after = widened.fit.as_ref().map(|f| f.result.cost);
     let taken = after.is_some_and(|a| a.fitness() < WIDER_GAIN * before.cost.fitness());
     let refit = WidenedRefit {
