@@ -64,8 +64,12 @@ impl Restarted {
             true => "searched again, widened,",
             false => "searched again",
         };
+        let kept = match self.refitted.0 < self.stalled.0 {
+            true => "",
+            false => ", no better: the stalled fit is judged",
+        };
         format!(
-            "its refit stalled above {} (objective {:.4} > {:.4}): {how} from there to {:.4}",
+            "its refit stalled above {} (objective {:.4} > {:.4}): {how} from there to {:.4}{kept}",
             self.from, self.stalled.0, self.nested.0, self.refitted.0
         )
     }
@@ -248,6 +252,52 @@ mod tests {
         )));
         drop(unpublished);
         assert!(matches!(slot.get(), Some(Some((_, o))) if *o == 2.5));
+    }
+
+    #[test]
+    fn a_search_again_that_ends_no_better_keeps_the_stalled_fit_and_says_so() {
+        // Coulomb friction's fit on a motor with Coulomb friction, listed as if it had
+        // reached half the objective it has (no search from the motor's fit reaches that):
+        // searched again from the motor's fit, it ends above it, and the fit listed stands.
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        let truth = motor.with(ParamId::Tc, 0.05);
+        let data = simulated(&truth, &truth, (6, 2));
+        let cx = test_context(&data, &[], motor);
+        let reference = refit_from(&data.train, &quiet(), &cx.spec, &motor).unwrap();
+        let mut listed = cx.add(&cx.spec, Effect::CoulombFriction, &motor).unwrap();
+        listed.fit.result.cost.sse *= 0.25;
+        let stalled = listed.fit.result.cost.fitness();
+        let nested = reference.result.cost.fitness();
+        let start = nested_point(
+            Effect::CoulombFriction,
+            &listed.fit.spec,
+            &reference.result.params,
+        )
+        .expect("the motor is a point of Coulomb friction's problem");
+        let from = "the model it is added to";
+        let out = restart(
+            &cx,
+            Effect::CoulombFriction,
+            &listed,
+            (from, &start, nested),
+        )
+        .unwrap();
+        for id in ParamId::ALL {
+            let (a, b) = (
+                out.fit.result.params.get(id),
+                listed.fit.result.params.get(id),
+            );
+            assert_eq!(a.to_bits(), b.to_bits(), "{id:?}");
+        }
+        assert_eq!(out.fit.result.cost.sse, listed.fit.result.cost.sse);
+        let r = out.restarted.as_ref().expect("searched again");
+        assert_eq!(r.stalled.0, stalled);
+        assert!(r.refitted.0 > 1.5 * stalled, "{r:?}");
+        assert!(
+            r.line().ends_with("no better: the stalled fit is judged"),
+            "{}",
+            r.line()
+        );
     }
 
     #[test]
