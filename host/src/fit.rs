@@ -139,11 +139,7 @@ pub fn refit_from(
     spec: &ProblemSpec,
     start: &ModelParams,
 ) -> Result<Fit> {
-    let cfg = IdentifyConfig {
-        profile_check: false,
-        ..IdentifyConfig::local(opts.seed)
-    };
-    run_fit(records, opts, spec, &cfg, Some(start))
+    local_fit(records, opts, spec, start, false)
 }
 
 /// [`refit_from`] with the profile check of a base fit (its uncertainties checked along
@@ -155,13 +151,23 @@ pub fn refit_checked_from(
     spec: &ProblemSpec,
     start: &ModelParams,
 ) -> Result<Fit> {
-    run_fit(
-        records,
-        opts,
-        spec,
-        &IdentifyConfig::local(opts.seed),
-        Some(start),
-    )
+    local_fit(records, opts, spec, start, true)
+}
+
+/// Least squares from `start` alone ([`IdentifyConfig::local`]), with or without its
+/// `profile_check`.
+fn local_fit(
+    records: &[OwnedRecord],
+    opts: &FitOptions,
+    spec: &ProblemSpec,
+    start: &ModelParams,
+    profile_check: bool,
+) -> Result<Fit> {
+    let cfg = IdentifyConfig {
+        profile_check,
+        ..IdentifyConfig::local(opts.seed)
+    };
+    run_fit(records, opts, spec, &cfg, Some(start))
 }
 
 /// A refit by least squares from a start ([`refit_from`], [`refit_checked_from`]).
@@ -170,21 +176,23 @@ pub type Refit = fn(&[OwnedRecord], &FitOptions, &ProblemSpec, &ModelParams) -> 
 /// Samples a widened search ([`widen_from`]) simulates per evaluation at most: the records
 /// are decimated to this many (the lab motor's 86,000 training samples by 9), so that the
 /// escalation's 4,100 evaluations cost about what 500 do on the records themselves. The
-/// diagnosis' search of an effect's basin reads them so too ([`searched_records`]).
+/// diagnosis' baseline escalation searches them so, and its search of an effect's basin
+/// reads them so too ([`searched_records`]).
 pub const WIDENED_SAMPLES: usize = 10_000;
 
 /// Widen the search of `spec` around its fit at `start`, which stays above its noise floor,
 /// as the pipeline's escalation widens the base fit (its first wider FFO,
 /// `IdentifyConfig::wider`) over the parameters `alone` frees (an effect's own, the rest
 /// held at `start`: the box of the motor's parameters is far wider than their basin, known
-/// already; for the diagnosis' baseline, everything `spec` frees). The search starts from `start`'s own optimum on the records it searches
-/// (least squares over the same parameters): where it ends no better than that by 1 %
-/// (the escalation's rule) the fit stands, and nothing more is done; otherwise `spec` is
-/// refitted by least squares on `records` from its best (by `refit`). With `decimate`,
-/// the search runs on the records decimated to at most [`WIDENED_SAMPLES`] (as `--decimate`
-/// reads a file: readings averaged over each block, the input's voltage-seconds kept): it
-/// finds the basin, the refit on every sample converges in it. A record that cannot be
-/// decimated (too short, a coast-down within one block) is searched whole.
+/// already; for the diagnosis' baseline, everything `spec` frees). The search starts from
+/// `start`'s own optimum on the records it searches (least squares over the same
+/// parameters): where it ends no better than that by 1 % (the escalation's rule) the fit
+/// stands, and nothing more is done; otherwise `spec` is refitted by least squares on
+/// `records` from its best (by `refit`). With `decimate`, the search runs on the records
+/// decimated to at most [`WIDENED_SAMPLES`] (as `--decimate` reads a file: readings
+/// averaged over each block, the input's voltage-seconds kept): it finds the basin, the
+/// refit on every sample converges in it. A record that cannot be decimated (too short, a
+/// coast-down within one block) is searched whole.
 pub fn widen_from(
     records: &[OwnedRecord],
     opts: &FitOptions,
