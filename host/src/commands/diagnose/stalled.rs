@@ -227,7 +227,7 @@ fn restart(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::commands::diagnose::data::simulated;
+    use crate::commands::diagnose::data::{simulated, Data};
     use crate::commands::diagnose::search_context::test_context;
     use crate::fit::refit_from;
     use crate::fit::tests::quiet;
@@ -254,14 +254,19 @@ mod tests {
         assert!(matches!(slot.get(), Some(Some((_, o))) if *o == 2.5));
     }
 
+    /// A motor and the records of it with Coulomb friction of 0.05 N m (the tests' case).
+    fn with_coulomb_friction() -> (ModelParams, Data) {
+        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
+        let truth = motor.with(ParamId::Tc, 0.05);
+        (motor, simulated(&truth, &truth, (6, 2)))
+    }
+
     #[test]
     fn a_search_again_that_ends_no_better_keeps_the_stalled_fit_and_says_so() {
         // Coulomb friction's fit on a motor with Coulomb friction, listed as if it had
         // reached half the objective it has (no search from the motor's fit reaches that):
         // searched again from the motor's fit, it ends above it, and the fit listed stands.
-        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let truth = motor.with(ParamId::Tc, 0.05);
-        let data = simulated(&truth, &truth, (6, 2));
+        let (motor, data) = with_coulomb_friction();
         let cx = test_context(&data, &[], motor);
         let reference = refit_from(&data.train, &quiet(), &cx.spec, &motor).unwrap();
         let mut listed = cx.add(&cx.spec, Effect::CoulombFriction, &motor).unwrap();
@@ -305,9 +310,7 @@ mod tests {
         // A motor with Coulomb friction: static friction, which extends it, and a fan load
         // are tried beside it. Each candidate's fit ended at a poor point of its problem
         // (fitted in a box around it, reported with the problem's box).
-        let motor = ModelParams::motor(1.0, 0.02, 0.002, 0.001, 0.08);
-        let truth = motor.with(ParamId::Tc, 0.05);
-        let data = simulated(&truth, &truth, (6, 2));
+        let (motor, data) = with_coulomb_friction();
         let cx = test_context(&data, &[], motor);
         let reference = refit_from(&data.train, &quiet(), &cx.spec, &motor).unwrap();
         let coulomb = cx.add(&cx.spec, Effect::CoulombFriction, &motor).unwrap();
